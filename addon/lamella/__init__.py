@@ -1,0 +1,5 @@
+"""Lamella: physically based layered materials for Blender (see DESIGN.md).
+
+``lamella.core`` is pure numpy and imports without bpy; ``lamella.blender`` holds everything bpy.
+"""
+__version__ = "0.1.0"

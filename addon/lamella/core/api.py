@@ -1,0 +1,94 @@
+"""The Python API of DESIGN.md ("Contract: the Python API"): ``lobes``, ``evaluate``, ``albedo``.
+
+Runs the one model on the numpy backend. ``model`` is a name of ``MODELS`` or a
+``models.Variant`` (e.g. ``models.variant("yamaguchi2019", mapping="weier")``); ``dtype`` selects
+float64 (default) or float32 evaluation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .backends.numpy_ops import NumpyOps
+from .models import VARIANTS, UnsupportedStack, Variant, eval_lobes_cos, run_model, variant
+from .stack import Stack
+
+MODELS = ("auto", *VARIANTS)
+
+
+@dataclass
+class Lobes:
+    """Lobes per incident direction: ``weight`` (N, K, 3), ``alpha_x``, ``alpha_y``,
+    ``rotation`` (N, K) and ``kinds`` (K,)."""
+
+    weight: np.ndarray
+    alpha_x: np.ndarray
+    alpha_y: np.ndarray
+    rotation: np.ndarray
+    kinds: tuple[str, ...]
+    model: str
+
+
+def _resolve(model) -> Variant:
+    return model if isinstance(model, Variant) else variant(model)
+
+
+def _dirs(w, dtype) -> np.ndarray:
+    w = np.asarray(w, dtype=dtype)
+    if w.ndim == 1:
+        w = w[None, :]
+    if w.ndim != 2 or w.shape[1] != 3:
+        raise ValueError(f"directions must have shape (3,) or (N, 3), got {w.shape}")
+    return w
+
+
+def _run(stack, wi, model, dtype):
+    stack = Stack.coerce(stack)
+    v = _resolve(model)
+    ops = NumpyOps(dtype)
+    wi = _dirs(wi, ops.dtype)
+    wi_vals = tuple(ops.input(n, wi[:, k]) for k, n in enumerate(("wi_x", "wi_y", "wi_z")))
+    return ops, v, wi_vals, run_model(ops, stack, wi_vals, v)
+
+
+def _full(x, n, dtype):
+    return np.broadcast_to(np.asarray(x, dtype=dtype), (n,))
+
+
+def lobes(stack, wi, model="auto", dtype=np.float64) -> Lobes:
+    ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
+    n = wi_vals[0].shape[0]
+    dt = ops.dtype
+    return Lobes(
+        weight=np.stack([np.stack([_full(c, n, dt) for c in lobe.weight], -1) for lobe in ls], 1),
+        alpha_x=np.stack([_full(lobe.alpha_x, n, dt) for lobe in ls], 1),
+        alpha_y=np.stack([_full(lobe.alpha_y, n, dt) for lobe in ls], 1),
+        rotation=np.stack([_full(lobe.rotation, n, dt) for lobe in ls], 1),
+        kinds=tuple(lobe.kind for lobe in ls),
+        model=v.name,
+    )
+
+
+def evaluate(stack, wi, wo, model="auto", dtype=np.float64) -> np.ndarray:
+    """f(wi, wo) * |wo.z| as an (N, 3) array (wi broadcasts against wo)."""
+    wo = _dirs(wo, dtype)
+    wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
+    ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
+    wo_vals = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
+    f = eval_lobes_cos(ops, ls, wi_vals, wo_vals)
+    return np.stack([_full(c, wo.shape[0], ops.dtype) for c in f], -1)
+
+
+def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64) -> np.ndarray:
+    """Total energy the model sends back up (``side="reflected"``: the sum of its lobes'
+    energies) or through a dielectric base (``"transmitted"``; zero for opaque bases)."""
+    if side not in ("reflected", "transmitted"):
+        raise ValueError(f"side must be 'reflected' or 'transmitted', got {side!r}")
+    lb = lobes(stack, wi, model, dtype)
+    refl = np.array([k == "reflection" for k in lb.kinds])
+    sel = refl if side == "reflected" else ~refl
+    return lb.weight[:, sel, :].sum(1)
+
+
+__all__ = ["MODELS", "Lobes", "lobes", "evaluate", "albedo", "UnsupportedStack"]

@@ -1,0 +1,105 @@
+"""The numpy backend of the one model (DESIGN.md, "One model, three backends").
+
+Model code never imports numpy: it receives an *ops* object and uses only its operations,
+Python arithmetic and comparisons on the values it is handed. ``NumpyOps`` maps those operations
+to numpy ufuncs in a fixed precision (float64 or float32), so the same model code is the
+reference implementation, the benchmark subject, and (through the tracing backends) the shader.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import luts as _luts
+
+
+class NumpyOps:
+    """Operations over numpy arrays of one dtype.
+
+    ``dtype`` is ``np.float64`` (default) or ``np.float32``; every constant and input is cast so
+    that no operation silently promotes a float32 evaluation to float64.
+    """
+
+    name = "numpy"
+
+    def __init__(self, dtype=np.float64):
+        self.dtype = np.dtype(dtype)
+
+    # ------------------------------------------------------------------ values
+    def const(self, x):
+        """A literal of the model (or a structural constant)."""
+        return self.dtype.type(x)
+
+    def param(self, name: str, value):
+        """A per-layer parameter. For numpy it is just the (cast) value; tracers make an input."""
+        return np.asarray(value, dtype=self.dtype) if np.ndim(value) else self.dtype.type(value)
+
+    def input(self, name: str, value):
+        """A per-shading-point input (a direction component)."""
+        return np.asarray(value, dtype=self.dtype)
+
+    # ------------------------------------------------------------------ math
+    def sqrt(self, x):
+        return np.sqrt(x)
+
+    def exp(self, x):
+        return np.exp(x)
+
+    def log(self, x):
+        return np.log(x)
+
+    def pow(self, x, y):
+        return np.power(x, self.dtype.type(y) if isinstance(y, float) else y)
+
+    def abs(self, x):
+        return np.abs(x)
+
+    def min(self, a, b):
+        return np.minimum(a, b)
+
+    def max(self, a, b):
+        return np.maximum(a, b)
+
+    def clamp(self, x, lo, hi):
+        return np.minimum(np.maximum(x, lo), hi)
+
+    def select(self, cond, a, b):
+        return np.where(cond, a, b).astype(self.dtype, copy=False)
+
+    def cos(self, x):
+        return np.cos(x)
+
+    def sin(self, x):
+        return np.sin(x)
+
+    def atan2(self, y, x):
+        return np.arctan2(y, x)
+
+    # ------------------------------------------------------------------ tables
+    def lut(self, name: str, *coords):
+        """Multilinear look-up in the named table (see ``lamella.core.luts``); coordinates are
+        normalised to [0, 1] per axis and clamped."""
+        table = _luts.table(name).astype(self.dtype, copy=False)
+        return _multilinear(table, [np.asarray(c, dtype=self.dtype) for c in coords], self.dtype)
+
+
+def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
+    """Clamp-to-edge multilinear interpolation of ``table`` (axes in the order of ``coords``) at
+    coordinates in [0, 1] (node i of an axis with n nodes sits at i / (n - 1))."""
+    coords = np.broadcast_arrays(*coords)
+    idx0, frac = [], []
+    for c, n in zip(coords, table.shape):
+        x = np.clip(c, 0.0, 1.0) * (n - 1)
+        i = np.minimum(np.floor(x).astype(np.int64), n - 2)
+        idx0.append(i)
+        frac.append((x - i).astype(dtype))
+    out = np.zeros(coords[0].shape, dtype=dtype)
+    d = len(coords)
+    for corner in range(1 << d):
+        w = np.ones(coords[0].shape, dtype=dtype)
+        index = []
+        for axis in range(d):
+            bit = (corner >> axis) & 1
+            w = w * (frac[axis] if bit else (1 - frac[axis]))
+            index.append(idx0[axis] + bit)
+        out = out + w * table[tuple(index)]
+    return out

@@ -1,0 +1,194 @@
+"""A tracing backend: runs the one model on symbolic values and records an expression graph.
+
+This is the front half of the OSL and node-graph emitters (DESIGN.md "One model, three
+backends"): values are ``Expr`` nodes; arithmetic between plain numbers is folded at trace time,
+identical sub-expressions are shared (hash-consing), and the result is a finite DAG whose
+leaves are literals, shader parameters (``param``) and shading inputs (``input``). Evaluating the
+graph with numpy (``evaluate``) must reproduce the numpy backend, which is how tests prove the
+model never escapes the ops it is handed.
+"""
+from __future__ import annotations
+
+import math
+import operator
+from typing import Any
+
+_BINARY = {
+    "add": operator.add, "sub": operator.sub, "mul": operator.mul, "div": operator.truediv,
+    "lt": operator.lt, "le": operator.le, "gt": operator.gt, "ge": operator.ge,
+}
+
+
+class Expr:
+    """A node of the traced graph. Build only through ``Tracer``; never branch on one."""
+
+    __slots__ = ("tracer", "op", "args", "key", "__weakref__")
+
+    def __init__(self, tracer: "Tracer", op: str, args: tuple, key):
+        self.tracer, self.op, self.args, self.key = tracer, op, args, key
+
+    def _bin(self, op, other, swap=False):
+        a, b = (other, self) if swap else (self, other)
+        return self.tracer.node(op, a, b)
+
+    def __add__(self, o): return self._bin("add", o)
+    def __radd__(self, o): return self._bin("add", o, True)
+    def __sub__(self, o): return self._bin("sub", o)
+    def __rsub__(self, o): return self._bin("sub", o, True)
+    def __mul__(self, o): return self._bin("mul", o)
+    def __rmul__(self, o): return self._bin("mul", o, True)
+    def __truediv__(self, o): return self._bin("div", o)
+    def __rtruediv__(self, o): return self._bin("div", o, True)
+    def __neg__(self): return self.tracer.node("sub", 0.0, self)
+    def __lt__(self, o): return self._bin("lt", o)
+    def __le__(self, o): return self._bin("le", o)
+    def __gt__(self, o): return self._bin("gt", o)
+    def __ge__(self, o): return self._bin("ge", o)
+
+    def __bool__(self):
+        raise TypeError("a traced value has no truth value: model code must use ops.select, "
+                        "not Python control flow, on traced values")
+
+    __hash__ = object.__hash__
+
+    def __repr__(self):
+        return f"Expr({self.op})"
+
+
+def _is_num(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+class Tracer:
+    """The ops of the tracing backend. ``nodes`` lists the graph's nodes in creation order
+    (a topological order); ``params`` and ``inputs`` the leaves by name."""
+
+    name = "trace"
+
+    def __init__(self):
+        self.nodes: list[Expr] = []
+        self.params: dict[str, Expr] = {}
+        self.defaults: dict[str, Any] = {}
+        self.inputs: dict[str, Expr] = {}
+        self._cache: dict[tuple, Expr] = {}
+
+    # ---------------------------------------------------------------- graph building
+    def _key(self, a):
+        return ("n", a) if _is_num(a) else ("e", id(a))
+
+    def node(self, op: str, *args) -> Expr | float:
+        args = tuple(float(a) if _is_num(a) else a for a in args)
+        for a in args:
+            if not (_is_num(a) or isinstance(a, (Expr, str))):
+                raise TypeError(f"cannot trace operand {a!r} of type {type(a).__name__}")
+        if all(_is_num(a) for a in args) and op in _FOLD:
+            return _FOLD[op](*args)
+        simplified = _simplify(op, args)
+        if simplified is not None:
+            return simplified
+        key = (op,) + tuple(a if isinstance(a, str) else self._key(a) for a in args)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        e = Expr(self, op, args, key)
+        self._cache[key] = e
+        self.nodes.append(e)
+        return e
+
+    def const(self, x):
+        return float(x)
+
+    def param(self, name, value):
+        e = self.node("param", name)
+        self.params[name] = e
+        self.defaults[name] = value
+        return e
+
+    def input(self, name, value=None):
+        e = self.node("input", name)
+        self.inputs[name] = e
+        return e
+
+    # ---------------------------------------------------------------- ops
+    def sqrt(self, x): return self.node("sqrt", x)
+    def exp(self, x): return self.node("exp", x)
+    def log(self, x): return self.node("log", x)
+    def pow(self, x, y): return self.node("pow", x, y)
+    def abs(self, x): return self.node("abs", x)
+    def min(self, a, b): return self.node("min", a, b)
+    def max(self, a, b): return self.node("max", a, b)
+    def clamp(self, x, lo, hi): return self.node("min", self.node("max", x, lo), hi)
+    def cos(self, x): return self.node("cos", x)
+    def sin(self, x): return self.node("sin", x)
+    def atan2(self, y, x): return self.node("atan2", y, x)
+
+    def select(self, cond, a, b):
+        if isinstance(cond, bool):
+            return a if cond else b
+        return self.node("select", cond, a, b)
+
+    def lut(self, name, *coords):
+        return self.node("lut", name, *coords)
+
+    # ---------------------------------------------------------------- inspection
+    def live_nodes(self, outputs) -> list[Expr]:
+        """Nodes reachable from ``outputs`` (values or Expr), in topological order."""
+        seen: set[int] = set()
+        stack = [o for o in outputs if isinstance(o, Expr)]
+        while stack:
+            e = stack.pop()
+            if id(e) in seen:
+                continue
+            seen.add(id(e))
+            stack.extend(a for a in e.args if isinstance(a, Expr))
+        return [e for e in self.nodes if id(e) in seen]
+
+    def evaluate(self, outputs, ops, values: dict[str, Any]):
+        """Evaluate the graph on another backend (e.g. ``NumpyOps``) with leaf values by name."""
+        env: dict[int, Any] = {}
+
+        def val(a):
+            return env[id(a)] if isinstance(a, Expr) else a
+
+        for e in self.live_nodes(outputs):
+            a = [val(x) for x in e.args]
+            if e.op in ("param", "input"):
+                v = ops.param(a[0], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
+            elif e.op in _BINARY:
+                v = _BINARY[e.op](a[0], a[1])
+            elif e.op == "select":
+                v = ops.select(*a)
+            elif e.op == "lut":
+                v = ops.lut(a[0], *a[1:])
+            else:
+                v = getattr(ops, e.op)(*a)
+            env[id(e)] = v
+        return [val(o) for o in outputs]
+
+
+_FOLD = dict(_BINARY)
+_FOLD.update({
+    "sqrt": math.sqrt, "exp": math.exp, "log": math.log, "pow": math.pow, "abs": abs,
+    "min": min, "max": max, "cos": math.cos, "sin": math.sin, "atan2": math.atan2,
+    "select": lambda c, a, b: a if c else b,
+})
+
+
+def _simplify(op, args):
+    """Algebraic identities with a literal operand (x + 0, x * 1, x * 0 with x finite by
+    construction, x / 1, select on equal branches)."""
+    if op in ("add", "sub") and _is_num(args[1]) and args[1] == 0.0:
+        return args[0]
+    if op == "add" and _is_num(args[0]) and args[0] == 0.0:
+        return args[1]
+    if op == "mul":
+        for i in (0, 1):
+            if _is_num(args[i]) and args[i] == 1.0:
+                return args[1 - i]
+            if _is_num(args[i]) and args[i] == 0.0:
+                return 0.0
+    if op == "div" and _is_num(args[1]) and args[1] == 1.0:
+        return args[0]
+    if op == "select" and args[1] is args[2]:
+        return args[1]
+    return None

@@ -1,0 +1,266 @@
+"""Pre-integrated look-up tables of the statistical models, their generation and loading.
+
+Tables (all GGX with height-correlated Smith masking, the convention of ``models/ggx.py``):
+
+``ggx_albedo`` (2D, cos_i x alpha), three channels that make the conductor FGD from a
+  Fresnel curve in the F82 basis F(c) = F0 + (1 - F0)(1 - c)^5 - a c (1 - c)^6
+  (Hoffman 2023, "Generalization of Adobe's Fresnel model"): A = GD (albedo with F = 1, the
+  normaliser of paper 001 Eq. 38), B = albedo with F = (1 - c)^5, C = albedo with F = c (1 - c)^6.
+``fgd_dielectric_delta`` (3D, cos_i x alpha x log eta): FGD(mu, alpha, eta) - F(mu, eta), the
+  rough-minus-smooth directional albedo of a dielectric interface with exact Fresnel (paper 001
+  Eq. 8). Storing the difference makes every smooth limit exact (alpha = 0 is identically 0) and
+  an index-matched interface (a node sits at eta = 1) reflect exactly nothing.
+``tir`` (3D, u x alpha x eta): Belcour 2018's total-internal-reflection correction: the fraction
+  of a GGX reflection lobe of roughness alpha, whose mirror direction makes sin(theta) = u * eta
+  with the normal, that lies inside the escape cone sin(theta) < eta (eta = n_outside / n_inside
+  <= 1). u = 1 is the mean direction of light refracted in at grazing incidence.
+
+Axes are normalised to [0, 1] for look-ups; the node positions are given by the axis maps below.
+Tables are written as ZIP-compressed float32 EXR in ``lamella/data/luts`` (3D tables as an atlas of
+slices of the last axis stacked vertically) by ``lamella luts``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+DATA_DIR = Path(__file__).resolve().parent.parent / "data" / "luts"
+
+ETA_MIN, ETA_MAX = 1.0 / 3.0, 3.0  # relative index range of the dielectric FGD table
+TIR_ETA_MIN = 0.2  # escape-cone range of the TIR table (inside index up to 5)
+
+
+# ---------------------------------------------------------------- axis maps (model side)
+# These take and return backend values: they are used both by the generator (numpy) and by
+# the traced model code (any ops), so the look-up coordinates and the node positions agree.
+def mu_to_coord(ops, mu):
+    return ops.sqrt(ops.clamp(mu, 0.0, 1.0))
+
+
+def alpha_to_coord(ops, alpha):
+    return ops.sqrt(ops.clamp(alpha, 0.0, 1.0))
+
+
+def eta_to_coord(ops, eta):
+    lo, hi = math.log(ETA_MIN), math.log(ETA_MAX)
+    return (ops.log(ops.clamp(eta, ETA_MIN, ETA_MAX)) - lo) * (1.0 / (hi - lo))
+
+
+def tir_eta_to_coord(ops, eta):
+    return (ops.clamp(eta, TIR_ETA_MIN, 1.0) - TIR_ETA_MIN) * (1.0 / (1.0 - TIR_ETA_MIN))
+
+
+def _mu_nodes(n):
+    return np.linspace(0.0, 1.0, n) ** 2
+
+
+def _alpha_nodes(n):
+    return np.linspace(0.0, 1.0, n) ** 2
+
+
+def _eta_nodes(n):
+    assert n % 2 == 1, "odd count keeps a node at eta = 1"
+    return np.exp(np.linspace(math.log(ETA_MIN), math.log(ETA_MAX), n))
+
+
+def _tir_eta_nodes(n):
+    return np.linspace(TIR_ETA_MIN, 1.0, n)
+
+
+@dataclass(frozen=True)
+class TableSpec:
+    name: str
+    file: str
+    channel: str
+    shape: tuple[int, ...]
+
+
+N_MU, N_ALPHA, N_ETA, N_TIR_U, N_TIR_ETA = 32, 32, 33, 32, 17
+SPECS = {
+    "ggx_albedo_A": TableSpec("ggx_albedo_A", "ggx_albedo.exr", "A_gd", (N_MU, N_ALPHA)),
+    "ggx_albedo_B": TableSpec("ggx_albedo_B", "ggx_albedo.exr", "B_schlick", (N_MU, N_ALPHA)),
+    "ggx_albedo_C": TableSpec("ggx_albedo_C", "ggx_albedo.exr", "C_tint", (N_MU, N_ALPHA)),
+    "fgd_dielectric_delta": TableSpec("fgd_dielectric_delta", "fgd_dielectric_delta.exr", "Y",
+                                      (N_MU, N_ALPHA, N_ETA)),
+    "tir": TableSpec("tir", "tir.exr", "Y", (N_TIR_U, N_ALPHA, N_TIR_ETA)),
+}
+
+_cache: dict[str, np.ndarray] = {}
+
+
+def table(name: str) -> np.ndarray:
+    """The named table as a float32 array of its spec's shape (loaded once)."""
+    if name not in _cache:
+        spec = SPECS[name]
+        _cache[name] = _read_table(DATA_DIR / spec.file, spec.channel, spec.shape)
+    return _cache[name]
+
+
+def _read_table(path: Path, channel: str, shape) -> np.ndarray:
+    import OpenEXR
+
+    if not path.exists():
+        raise FileNotFoundError(f"look-up table {path} is missing: run `lamella luts` to generate it")
+    with OpenEXR.File(str(path)) as f:
+        px = np.asarray(f.channels()[channel].pixels, dtype=np.float32)
+    return _from_atlas(px, shape)
+
+
+def _to_atlas(a: np.ndarray) -> np.ndarray:
+    if a.ndim == 2:
+        return a
+    n0, n1, n2 = a.shape
+    return np.ascontiguousarray(np.transpose(a, (2, 0, 1)).reshape(n2 * n0, n1))
+
+
+def _from_atlas(px: np.ndarray, shape) -> np.ndarray:
+    if len(shape) == 2:
+        return px.reshape(shape)
+    n0, n1, n2 = shape
+    return np.ascontiguousarray(px.reshape(n2, n0, n1).transpose(1, 2, 0))
+
+
+def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
+    import OpenEXR
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files: dict[str, dict[str, np.ndarray]] = {}
+    for name, arr in tables.items():
+        spec = SPECS[name]
+        assert arr.shape == spec.shape, (name, arr.shape, spec.shape)
+        files.setdefault(spec.file, {})[spec.channel] = _to_atlas(arr.astype(np.float32))
+    written = []
+    for fname, channels in files.items():
+        shape = next(SPECS[n].shape for n in SPECS if SPECS[n].file == fname)
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  "lamella_shape": ",".join(map(str, shape))}
+        with OpenEXR.File(header, channels) as f:
+            f.write(str(out_dir / fname))
+        written.append(out_dir / fname)
+    _cache.clear()
+    return written
+
+
+# ---------------------------------------------------------------- numerical integration
+def _stratified(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n x n midpoint rule on the VNDF sample square, with u1 = 1 - (1 - t)^3 so the cells crowd
+    into GGX's heavy tail (u1 -> 1), where total internal reflection and the horizon cut the
+    integrand. Returns (u1, u2, weight); estimates are mean(weight * f)."""
+    g = (np.arange(n) + 0.5) / n
+    t1, u2 = np.meshgrid(g, g, indexing="ij")
+    t1, u2 = t1.ravel(), u2.ravel()
+    return 1.0 - (1.0 - t1) ** 3, u2, 3.0 * (1.0 - t1) ** 2
+
+
+def _vndf_reflect(mu: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray):
+    """Isotropic GGX, wi = (sqrt(1 - mu^2), 0, mu). Samples visible normals (Heitz 2018, JCGT 7(4),
+    Listing 1) and returns (c = wi.h, wo, weight) where the albedo integral of a function F(c) is
+    E[F(c) * weight] with weight = G2(wi, wo) / G1(wi) for wo above the horizon (height-correlated
+    Smith, Heitz 2014 Eq. 99). Arrays broadcast: mu/alpha (..., 1), u (S,)."""
+    sin_i = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
+    vx, vz = alpha * sin_i, mu
+    vlen = np.sqrt(vx * vx + vz * vz)
+    vx, vz = vx / vlen, vz / vlen
+    # Heitz 2018: T1 = (-Vy, Vx, 0) / |.| (here Vy = 0), or (1, 0, 0) at normal incidence.
+    t1x = np.where(vx > 0, 0.0, 1.0)
+    t1y = np.where(vx > 0, 1.0, 0.0)
+    # T2 = V x T1
+    t2x, t2y, t2z = -vz * t1y, vz * t1x, vx * t1y
+    r = np.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    p1 = r * np.cos(phi)
+    p2 = r * np.sin(phi)
+    s = 0.5 * (1.0 + vz)
+    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
+    p3 = np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))
+    nx = p1 * t1x + p2 * t2x + p3 * vx
+    ny = p1 * t1y + p2 * t2y
+    nz = p2 * t2z + p3 * vz
+    hx, hy, hz = alpha * nx, alpha * ny, np.maximum(nz, 0.0)
+    hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+    hx, hy, hz = hx / hl, hy / hl, hz / hl
+    c = sin_i * hx + mu * hz
+    ox, oy, oz = 2.0 * c * hx - sin_i, 2.0 * c * hy, 2.0 * c * hz - mu
+    a2 = alpha * alpha
+    lam_i = (np.sqrt(1.0 + a2 * (1.0 - mu * mu) / (mu * mu)) - 1.0) * 0.5
+    ozc = np.maximum(oz, 1e-12)
+    lam_o = (np.sqrt(1.0 + a2 * (ox * ox + oy * oy) / (ozc * ozc)) - 1.0) * 0.5
+    weight = np.where(oz > 0, (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+    return c, (ox, oy, oz), weight
+
+
+def _fresnel_dielectric_np(c, eta):
+    from .backends.numpy_ops import NumpyOps
+    from .models.fresnel import fresnel_dielectric
+
+    return fresnel_dielectric(NumpyOps(), c, eta)
+
+
+MU_FLOOR = 1e-4  # the mu = 0 nodes are integrated at this cosine (the limit is continuous)
+
+
+def generate_ggx_albedo(n_samples: int = 160) -> dict[str, np.ndarray]:
+    mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
+    alpha = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)[:, None]
+    u1, u2, wt = _stratified(n_samples)
+    A, B, C = (np.zeros((N_MU, N_ALPHA)) for _ in range(3))
+    for i, m in enumerate(mu):
+        c, _, w = _vndf_reflect(np.array([[m]]), alpha, u1, u2)
+        w = w * wt
+        c = np.clip(c, 0.0, 1.0)
+        A[i] = w.mean(-1)
+        B[i] = (w * (1.0 - c) ** 5).mean(-1)
+        C[i] = (w * c * (1.0 - c) ** 6).mean(-1)
+    mu0 = mu
+    # alpha = 0 column: a mirror, exactly.
+    A[:, 0] = 1.0
+    B[:, 0] = (1.0 - mu0) ** 5
+    C[:, 0] = mu0 * (1.0 - mu0) ** 6
+    return {"ggx_albedo_A": A, "ggx_albedo_B": B, "ggx_albedo_C": C}
+
+
+def generate_fgd_dielectric_delta(n_samples: int = 160) -> np.ndarray:
+    mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
+    alpha = _alpha_nodes(N_ALPHA)
+    etas = _eta_nodes(N_ETA)
+    u1, u2, wt = _stratified(n_samples)
+    out = np.zeros((N_MU, N_ALPHA, N_ETA))
+    for i, m in enumerate(mu):
+        c, _, w = _vndf_reflect(np.array([[m]]), np.maximum(alpha, 1e-6)[:, None], u1, u2)
+        w = w * wt
+        c = np.clip(c, 0.0, 1.0)
+        for k, eta in enumerate(etas):
+            rough = (w * _fresnel_dielectric_np(c, eta)).mean(-1)
+            out[i, :, k] = rough - _fresnel_dielectric_np(np.array(m), eta)
+    out[:, 0, :] = 0.0
+    out[:, :, N_ETA // 2] = 0.0  # eta = 1 exactly: F = 0 for every facet
+    return out
+
+
+def generate_tir(n_samples: int = 160) -> np.ndarray:
+    u = np.linspace(0.0, 1.0, N_TIR_U)
+    alpha = _alpha_nodes(N_ALPHA)
+    etas = _tir_eta_nodes(N_TIR_ETA)
+    us1, us2, wt = _stratified(n_samples)
+    out = np.ones((N_TIR_U, N_ALPHA, N_TIR_ETA))
+    for k, eta in enumerate(etas):
+        sin_t = np.minimum(u * eta, 1.0)
+        mu = np.maximum(np.sqrt(1.0 - sin_t * sin_t), MU_FLOOR)
+        for i, m in enumerate(mu):
+            _, (ox, oy, oz), w = _vndf_reflect(np.array([[m]]), np.maximum(alpha, 1e-6)[:, None], us1, us2)
+            w = w * wt
+            inside = (ox * ox + oy * oy) < eta * eta
+            tot = w.sum(-1)
+            out[i, :, k] = np.where(tot > 0, (w * inside).sum(-1) / np.maximum(tot, 1e-30), 1.0)
+    out[:, 0, :] = 1.0  # a delta lobe along a refracted-in direction always escapes
+    return out
+
+
+def generate_all() -> dict[str, np.ndarray]:
+    tables = generate_ggx_albedo()
+    tables["fgd_dielectric_delta"] = generate_fgd_dielectric_delta()
+    tables["tir"] = generate_tir()
+    return tables
