@@ -2,10 +2,14 @@
 
 Tables (all GGX with height-correlated Smith masking, the convention of ``models/ggx.py``):
 
-``ggx_albedo`` (2D, cos_i x alpha), three channels that make the conductor FGD from a
-  Fresnel curve in the F82 basis F(c) = F0 + (1 - F0)(1 - c)^5 - a c (1 - c)^6
-  (Hoffman 2023, "Generalization of Adobe's Fresnel model"): A = GD (albedo with F = 1, the
-  normaliser of paper 001 Eq. 38), B = albedo with F = (1 - c)^5, C = albedo with F = c (1 - c)^6.
+``ggx_albedo`` (2D, cos_i x alpha): GD, the directional albedo with F = 1 (the lobe normaliser
+  of paper 001 Eq. 38).
+``fresnel_hat_delta`` (3D, cos_i x alpha x node j): the conductor FGD as a quadrature over Fresnel
+  samples. Writing any Fresnel curve as its piecewise-linear interpolant over the cosine nodes
+  c_j (hat functions h_j), FGD(mu, alpha) = sum_j F(c_j) W_j(mu, alpha) with W_j the albedo
+  integral of h_j(wi.h). The table stores W_j(mu, alpha) - h_j(mu), so that
+  FGD = F(mu) + sum_j F(c_j) [W_j - h_j(mu)] is exact at alpha = 0 and works for any complex
+  index given at run time (an F82/Schlick basis was 7 % off for gold's blue channel at 60 deg).
 ``fgd_dielectric_delta`` (3D, cos_i x alpha x log eta): FGD(mu, alpha, eta) - F(mu, eta), the
   rough-minus-smooth directional albedo of a dielectric interface with exact Fresnel (paper 001
   Eq. 8). Storing the difference makes every smooth limit exact (alpha = 0 is identically 0) and
@@ -78,11 +82,12 @@ class TableSpec:
     shape: tuple[int, ...]
 
 
-N_MU, N_ALPHA, N_ETA, N_TIR_U, N_TIR_ETA = 32, 32, 33, 32, 17
+N_MU, N_ALPHA, N_ETA, N_TIR_U, N_TIR_ETA, N_HAT = 32, 32, 33, 32, 17, 12
+# Cosine nodes of the Fresnel quadrature, dense toward grazing where conductor curves bend.
+FRESNEL_NODES = tuple(float(x) for x in np.linspace(0.0, 1.0, N_HAT) ** 2)
 SPECS = {
-    "ggx_albedo_A": TableSpec("ggx_albedo_A", "ggx_albedo.exr", "A_gd", (N_MU, N_ALPHA)),
-    "ggx_albedo_B": TableSpec("ggx_albedo_B", "ggx_albedo.exr", "B_schlick", (N_MU, N_ALPHA)),
-    "ggx_albedo_C": TableSpec("ggx_albedo_C", "ggx_albedo.exr", "C_tint", (N_MU, N_ALPHA)),
+    "ggx_albedo": TableSpec("ggx_albedo", "ggx_albedo.exr", "Y", (N_MU, N_ALPHA)),
+    "fresnel_hat_delta": TableSpec("fresnel_hat_delta", "fresnel_hat_delta.exr", "Y", (N_MU, N_ALPHA, N_HAT)),
     "fgd_dielectric_delta": TableSpec("fgd_dielectric_delta", "fgd_dielectric_delta.exr", "Y",
                                       (N_MU, N_ALPHA, N_ETA)),
     "tir": TableSpec("tir", "tir.exr", "Y", (N_TIR_U, N_ALPHA, N_TIR_ETA)),
@@ -202,24 +207,35 @@ def _fresnel_dielectric_np(c, eta):
 MU_FLOOR = 1e-4  # the mu = 0 nodes are integrated at this cosine (the limit is continuous)
 
 
+def hat(c, j: int, nodes=FRESNEL_NODES):
+    """Piecewise-linear hat function of node j over ``nodes`` (numpy or traced values)."""
+    left = (c - nodes[j - 1]) * (1.0 / (nodes[j] - nodes[j - 1])) if j > 0 else None
+    right = (nodes[j + 1] - c) * (1.0 / (nodes[j + 1] - nodes[j])) if j + 1 < len(nodes) else None
+    return left, right
+
+
+def _hat_np(c: np.ndarray, j: int) -> np.ndarray:
+    left, right = hat(c, j)
+    one = np.ones_like(c)
+    return np.clip(np.minimum(left if left is not None else one, right if right is not None else one), 0.0, 1.0)
+
+
 def generate_ggx_albedo(n_samples: int = 160) -> dict[str, np.ndarray]:
     mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
     alpha = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)[:, None]
     u1, u2, wt = _stratified(n_samples)
-    A, B, C = (np.zeros((N_MU, N_ALPHA)) for _ in range(3))
+    A = np.zeros((N_MU, N_ALPHA))
+    H = np.zeros((N_MU, N_ALPHA, N_HAT))
     for i, m in enumerate(mu):
         c, _, w = _vndf_reflect(np.array([[m]]), alpha, u1, u2)
         w = w * wt
         c = np.clip(c, 0.0, 1.0)
         A[i] = w.mean(-1)
-        B[i] = (w * (1.0 - c) ** 5).mean(-1)
-        C[i] = (w * c * (1.0 - c) ** 6).mean(-1)
-    mu0 = mu
-    # alpha = 0 column: a mirror, exactly.
-    A[:, 0] = 1.0
-    B[:, 0] = (1.0 - mu0) ** 5
-    C[:, 0] = mu0 * (1.0 - mu0) ** 6
-    return {"ggx_albedo_A": A, "ggx_albedo_B": B, "ggx_albedo_C": C}
+        for j in range(N_HAT):
+            H[i, :, j] = (w * _hat_np(c, j)).mean(-1) - _hat_np(np.array(m), j)
+    A[:, 0] = 1.0  # alpha = 0: a mirror, exactly
+    H[:, 0, :] = 0.0
+    return {"ggx_albedo": A, "fresnel_hat_delta": H}
 
 
 def generate_fgd_dielectric_delta(n_samples: int = 160) -> np.ndarray:

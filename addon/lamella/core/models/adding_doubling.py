@@ -147,16 +147,21 @@ def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:
             j12 = j21 = 1.0
             ctt, tsx, tsy = cti, sx, sy
 
-        # Belcour 2018's TIR correction of the upward transmission of the stack above
+        # Belcour 2018's TIR correction (paper 001, after Eq. 10): of the light this interface
+        # sends up, the part outside the escape cone is reflected back down by the stack above.
+        # It corrects the stack-above statistics seen by *this* interface's lobe only; the
+        # persisted statistics stay uncorrected so that the correction is not compounded at every
+        # deeper interface (with compounding, inserting an index-matched coat changed the result).
+        Ri0_seen, Ti0_seen = Ri0, Ti0
         if variant.tir and index > 0:
             spread_up = mapping.to_roughness(ops, (s_t0i + s_r12).mean())
             tir = tir_fraction(ops, sx, sy, n_above, spread_up)
-            Ri0 = Ri0 + Ti0 * (1.0 - tir)
-            Ti0 = Ti0 * tir
+            Ri0_seen = Ri0 + Ti0 * (1.0 - tir)
+            Ti0_seen = Ti0 * tir
+        m_R0i = T0i * R12 * Ti0_seen / (1.0 - Ri0_seen * R12).map(lambda d: ops.max(d, 1e-7))
 
         # Multiple scattering forms (Listing 3, lines 46-51)
         denom = (1.0 - Ri0 * R12).map(lambda d: ops.max(d, 1e-7))
-        m_R0i = T0i * R12 * Ti0 / denom
         m_Ri0 = T21 * Ri0 * T12 / denom
         m_Rr = Ri0 * R12 / denom
 

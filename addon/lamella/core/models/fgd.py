@@ -7,11 +7,8 @@ tabulated rough correction" so every smooth limit is exact to floating-point pre
 from __future__ import annotations
 
 from .. import luts
-from .fresnel import f0_conductor, fresnel_conductor, fresnel_dielectric
+from .fresnel import fresnel_conductor, fresnel_dielectric
 from .rgb import RGB
-
-F82_COS = 1.0 / 7.0  # Hoffman 2023: the F82 tint is matched at cos(theta) = 1/7 (~81.8 deg)
-
 
 def _coords(ops, mu, alpha):
     return luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, alpha)
@@ -20,7 +17,7 @@ def _coords(ops, mu, alpha):
 def gd(ops, mu, alpha):
     """Directional albedo of a GGX lobe with F = 1 (paper 001 Eq. 38)."""
     cm, ca = _coords(ops, mu, alpha)
-    return ops.lut("ggx_albedo_A", cm, ca)
+    return ops.lut("ggx_albedo", cm, ca)
 
 
 def fgd_dielectric(ops, mu, alpha, eta):
@@ -32,25 +29,18 @@ def fgd_dielectric(ops, mu, alpha, eta):
 
 
 def fgd_conductor(ops, mu, alpha, eta: RGB, k: RGB) -> RGB:
-    """FGD of a conductor of relative index eta + i k: the exact Fresnel at mu plus the rough
-    correction of the F82 fit of that Fresnel curve (F0 from eta, k; tint a matched at cos = 1/7),
-    whose albedo is linear in three tabulated integrals: F0 A + (1 - F0) B - a C."""
+    """FGD of a conductor of relative index eta + i k, as the exact Fresnel at mu plus a
+    quadrature of the Fresnel curve at the fixed cosines ``luts.FRESNEL_NODES`` against the
+    tabulated rough-minus-smooth weights (see ``luts``, table ``fresnel_hat_delta``)."""
     cm, ca = _coords(ops, mu, alpha)
-    A = ops.lut("ggx_albedo_A", cm, ca)
-    B = ops.lut("ggx_albedo_B", cm, ca)
-    C = ops.lut("ggx_albedo_C", cm, ca)
-    one_m = 1.0 - mu
-    one_m5 = one_m * one_m * one_m * one_m * one_m
-    B0, C0 = one_m5, mu * one_m5 * one_m  # the alpha = 0 values of B and C
-    cb = F82_COS
-    schlick_w = (1.0 - cb) ** 5
-    tint_w = cb * (1.0 - cb) ** 6
+    nodes = luts.FRESNEL_NODES
+    weights = [ops.lut("fresnel_hat_delta", cm, ca, j / (len(nodes) - 1.0)) for j in range(len(nodes))]
     out = []
     for e, kk in zip(eta, k):
-        f0 = f0_conductor(e, kk)
-        a = (f0 + (1.0 - f0) * schlick_w - fresnel_conductor(ops, cb, e, kk)) * (1.0 / tint_w)
-        rough_minus_smooth = f0 * (A - 1.0) + (1.0 - f0) * (B - B0) - a * (C - C0)
-        out.append(ops.clamp(fresnel_conductor(ops, mu, e, kk) + rough_minus_smooth, 0.0, 1.0))
+        f = fresnel_conductor(ops, mu, e, kk)
+        for j, c in enumerate(nodes):
+            f = f + fresnel_conductor(ops, c, e, kk) * weights[j]
+        out.append(ops.clamp(f, 0.0, 1.0))
     return RGB(*out)
 
 

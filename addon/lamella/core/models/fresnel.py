@@ -48,7 +48,3 @@ def fresnel_conductor(ops, cos_i, eta, k):
 def fresnel_conductor_rgb(ops, cos_i, eta: RGB, k: RGB) -> RGB:
     return RGB(*(fresnel_conductor(ops, cos_i, e, kk) for e, kk in zip(eta, k)))
 
-
-def f0_conductor(eta, k):
-    """Normal-incidence reflectance ((n-1)^2 + k^2) / ((n+1)^2 + k^2); plain arithmetic."""
-    return ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k)

@@ -52,6 +52,10 @@ class ScalarVariance:
         return a, a, 0.0
 
 
+def rms_alpha(ops, ax, ay):
+    return ops.sqrt(0.5 * (ax * ax + ay * ay))
+
+
 def _stretch_fetch(ops, lx, ly, cz, ax, ay):
     """Paper 003 Listing 1: stretch the incident direction by the excess roughness of each axis
     and read the isotropic table at the smaller roughness."""
@@ -142,10 +146,13 @@ class CovarianceVariance:
 
     @staticmethod
     def fgd_fetch(ops, sx, sy, cz, ax, ay, cos_r, sin_r):
-        # the incident direction in the interface's own frame, then paper 003's stretch
-        lx = sx * cos_r + sy * sin_r
-        ly = -sx * sin_r + sy * cos_r
-        return _stretch_fetch(ops, lx, ly, cz, ax, ay)
+        """Isotropic tables read at the RMS roughness sqrt((ax^2 + ay^2) / 2). Paper 000 used
+        Unity's F*G approximation here; we measured (``tests/unit/test_models.py``,
+        ``test_anisotropic_energy``) that the RMS roughness tracks the directional albedo of
+        anisotropic GGX far better than the stretch of paper 003 Listing 1 when one axis is
+        much rougher (e.g. (0.3, 0.05) at normal incidence: 0.938 vs exact 0.934; Listing 1 gives
+        the smooth value 0.997). Rotation-invariant, so rotated interfaces need nothing more."""
+        return cz, rms_alpha(ops, ax, ay)
 
     def to_lobe(self, ops, mapping):
         """Eigen-decomposition of the symmetric 2x2 covariance: major variance along the angle
