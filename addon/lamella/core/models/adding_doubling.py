@@ -136,8 +136,11 @@ def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:
             dn = ops.abs(n12 - 1.0)
             s_t12 = Spread.from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=0.5 * dn / n12)
             s_t21 = Spread.from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=0.5 * dn)
-            j12 = ops.select(transmits, n12 * ctt / ops.max(cti, COS_FLOOR), 1.0)
-            j21 = ops.select(transmits, ops.max(cti, COS_FLOOR) / (n12 * ops.max(ctt, COS_FLOOR)), 1.0)
+            # Under TIR of the mean direction nothing reaches the layers below, so their spreads
+            # are irrelevant: zero Jacobians restart the telescoping product n_i ct_i / ct_0 there
+            # (with 1 it would gain a factor up to n / COS_FLOOR per TIR and overflow float32).
+            j12 = ops.select(transmits, n12 * ctt / ops.max(cti, COS_FLOOR), 0.0)
+            j21 = ops.select(transmits, ops.max(cti, COS_FLOOR) / (n12 * ops.max(ctt, COS_FLOOR)), 0.0)
         else:
             eta = p["eta"] / n_above
             k = p["k"] / n_above

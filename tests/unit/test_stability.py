@@ -1,0 +1,99 @@
+"""Numerical stability over the whole valid parameter range, edges included, in float64 and float32:
+every output finite, energies >= 0, albedo <= 1 (all stacks here are passive), alphas in [0, 1]."""
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import lamella.core as lc
+
+MODELS = ["belcour2018", "weier2020", "yamaguchi2019"]
+
+EDGE_ROUGHNESS = [0.0, 1e-7, 1e-3, 0.5, 1.0 - 1e-7, 1.0]
+EDGE_IOR = [1.0, 1.0 + 1e-7, 1.0 - 1e-7, 0.3, 0.8, 1.5, 3.0, 5.0]
+EDGE_K = [0.0, 1e-6, 1.0, 50.0]
+
+roughness = st.one_of(st.sampled_from(EDGE_ROUGHNESS), st.floats(0.0, 1.0))
+ior = st.one_of(st.sampled_from(EDGE_IOR), st.floats(0.05, 6.0))
+angle = st.one_of(st.sampled_from([0.0, 0.5, np.pi / 2, -1.0, 7.0]), st.floats(-7.0, 7.0))
+coeff = st.one_of(st.sampled_from([0.0, 1e-6, 1.0, 1e3]), st.floats(0.0, 50.0))
+
+
+@st.composite
+def coats(draw):
+    thickness = draw(st.sampled_from([0.0, 1e-6, 1.0, 100.0]) | st.floats(0.0, 10.0))
+    return {
+        "ior": draw(ior),
+        "roughness": draw(st.one_of(roughness, st.tuples(roughness, roughness).map(list))),
+        "rotation": draw(angle),
+        "thickness": thickness,
+        "sigma_a": draw(st.tuples(coeff, coeff, coeff).map(list)),
+    }
+
+
+@st.composite
+def stacks(draw):
+    n = draw(st.sampled_from([0, 1, 2, 8]) | st.integers(0, 8))
+    kval = st.one_of(st.sampled_from(EDGE_K), st.floats(0.0, 50.0))
+    base = {
+        "type": "conductor",
+        "eta": draw(st.tuples(ior, ior, ior).map(list)),
+        "k": draw(st.tuples(kval, kval, kval).map(list)),
+        "roughness": draw(st.one_of(roughness, st.tuples(roughness, roughness).map(list))),
+        "rotation": draw(angle),
+    }
+    return {"layers": [draw(coats()) for _ in range(n)], "base": base}
+
+
+def edge_directions(extra):
+    """Unit vectors with cos theta = 0, 1e-7, 1 and a few others, at several azimuths."""
+    cos = np.array([0.0, 1e-7, 1e-3, 0.5, 1.0 - 1e-7, 1.0] + list(extra))
+    phi = np.linspace(0.0, 2 * np.pi, len(cos), endpoint=False) + 0.3
+    sin = np.sqrt(1.0 - cos * cos)
+    return np.stack([sin * np.cos(phi), sin * np.sin(phi), cos], -1)
+
+
+def check_outputs(d, model, dtype, wi, wo):
+    lb = lc.lobes(d, wi, model, dtype=dtype)
+    for name in ("weight", "alpha_x", "alpha_y", "rotation"):
+        a = getattr(lb, name)
+        assert a.dtype == dtype, name
+        assert np.isfinite(a).all(), f"{name} not finite for {d}"
+    assert (lb.weight >= 0).all()
+    assert ((lb.alpha_x >= 0) & (lb.alpha_x <= 1) & (lb.alpha_y >= 0) & (lb.alpha_y <= 1)).all()
+    total = lb.weight.sum(1)
+    slack = 1e-6 if dtype == np.float32 else 1e-12
+    assert (total <= 1.0 + slack).all(), total.max()
+    f = lc.evaluate(d, wi, wo, model, dtype=dtype)
+    assert f.dtype == dtype
+    assert np.isfinite(f).all() and (f >= 0).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("model", MODELS)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(d=stacks(), cos=st.lists(st.floats(0.0, 1.0), min_size=2, max_size=4))
+def test_every_output_is_finite_and_passive(model, dtype, d, cos):
+    wi = edge_directions(cos)
+    wo = edge_directions(cos)[::-1]
+    check_outputs(d, model, dtype, wi, wo)
+
+
+EXTREMES = [
+    {"layers": [], "base": {"type": "conductor", "eta": [1.0, 1.0, 1.0], "k": [0.0, 0.0, 0.0], "roughness": 0.0}},
+    {"layers": [{"ior": 1.0, "roughness": 1.0}] * 8,
+     "base": {"type": "conductor", "eta": [0.2, 1.0, 5.0], "k": [50.0, 50.0, 50.0], "roughness": 1.0}},
+    {"layers": [{"ior": 1.0 + 1e-7, "roughness": [1.0, 0.0], "rotation": 1.0,
+                 "thickness": 100.0, "sigma_a": [1000.0, 0.0, 1e-6]}] * 8,
+     "base": {"type": "conductor", "eta": [0.05, 0.05, 0.05], "k": [0.0, 1e-6, 50.0], "roughness": [0.0, 1.0]}},
+    {"layers": [{"ior": 5.0, "roughness": 0.0}, {"ior": 0.3, "roughness": 1e-7}, {"ior": 6.0, "roughness": 1.0}],
+     "base": {"type": "conductor", "eta": [6.0, 6.0, 6.0], "k": [0.0, 0.0, 0.0], "roughness": 0.0}},
+]
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("d", EXTREMES)
+def test_extreme_stacks(model, dtype, d):
+    wi = edge_directions([0.2, 0.9])
+    check_outputs(d, model, dtype, wi, wi[::-1])
