@@ -1,0 +1,1 @@
+"""Benchmarks and stored references (pure numpy + the stochastic reference; no bpy)."""

@@ -1,0 +1,157 @@
+"""The `lamella` command (DESIGN.md): lobes, plot, luts, references, bench, demo.
+
+Every stack argument is a JSON file (or a suite case name); a bad stack prints the StackError
+(which names the layer and field) and exits with status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _load_stack(arg: str):
+    from .core import Stack, StackError, suite
+
+    p = Path(arg)
+    try:
+        if p.exists():
+            return Stack.from_json(p.read_text())
+        if (suite.STACK_DIR / f"{arg}.json").exists():
+            return suite.load(arg)
+    except StackError as e:
+        raise SystemExit(f"lamella: {p}: {e}") from None
+    raise SystemExit(f"lamella: no stack file or suite case named {arg!r}")
+
+
+def cmd_lobes(a) -> int:
+    from .core import api
+    from .core.models import UnsupportedStack
+
+    stack = _load_stack(a.stack)
+    t, p = math.radians(a.wi), math.radians(a.phi)
+    wi = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+    print(f"stack {stack.name or a.stack}: {len(stack.coats)} coat(s) over a {stack.base.type}; "
+          f"wi = {a.wi:g} deg (azimuth {a.phi:g} deg)")
+    for m in a.model or ["belcour2018", "weier2020", "yamaguchi2019"]:
+        print(f"\n{m}")
+        try:
+            lb = api.lobes(stack, wi, m)
+        except UnsupportedStack as e:
+            print(f"  unsupported: {e}")
+            continue
+        print(f"  {'lobe':>4} {'kind':<10} {'weight R':>9} {'G':>8} {'B':>8} {'alpha_x':>8} {'alpha_y':>8} {'rot(deg)':>9}")
+        for k in range(lb.weight.shape[1]):
+            w = lb.weight[0, k]
+            print(f"  {k:>4} {lb.kinds[k]:<10} {w[0]:9.5f} {w[1]:8.5f} {w[2]:8.5f} "
+                  f"{lb.alpha_x[0, k]:8.5f} {lb.alpha_y[0, k]:8.5f} {math.degrees(lb.rotation[0, k]):9.2f}")
+        tot = lb.weight[0].sum(0)
+        print(f"  {'sum':>4} {'':<10} {tot[0]:9.5f} {tot[1]:8.5f} {tot[2]:8.5f}")
+    return 0
+
+
+def cmd_plot(a) -> int:
+    from .plots import plot_stack
+
+    stack = _load_stack(a.stack)
+    out = Path(a.out or f"out/{stack.name or Path(a.stack).stem}_slices.png")
+    t0 = time.time()
+    plot_stack(stack, out, spp=a.spp, thetas=tuple(float(x) for x in a.wi.split(",")))
+    print(f"wrote {out} ({time.time() - t0:.1f} s)")
+    return 0
+
+
+def cmd_luts(a) -> int:
+    from .core import luts
+
+    t0 = time.time()
+    out = Path(a.out) if a.out else luts.DATA_DIR
+    for p in luts.write_tables(luts.generate_all(), out):
+        print(f"wrote {p}")
+    print(f"{time.time() - t0:.1f} s")
+    return 0
+
+
+def cmd_references(a) -> int:
+    from .bench import accuracy
+
+    cases = a.cases.split(",") if a.cases else None
+    command = "lamella references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp}"
+    accuracy.compute_references(cases, spp=a.spp, out_dir=Path(a.out) if a.out else accuracy.REFERENCE_DIR,
+                                command=command)
+    return 0
+
+
+def cmd_bench(a) -> int:
+    from .bench import accuracy
+
+    if a.what == "accuracy":
+        md, js = accuracy.run()
+        print(md.read_text())
+        print(f"wrote {md} and {js}")
+    return 0
+
+
+def cmd_demo(a) -> int:
+    from .core import suite
+    from .plots import plot_stack
+
+    out = Path(a.out)
+    for name in (a.cases.split(",") if a.cases else suite.names()):
+        t0 = time.time()
+        p = plot_stack(suite.load(name), out / f"{name}_slices.png", spp=a.spp, title=f"{name}: {suite.descriptions()[name]}")
+        print(f"wrote {p} ({time.time() - t0:.1f} s)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="lamella", description="Lamella layered materials: models, references, benchmarks")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+
+    p = sub.add_parser("lobes", help="print each model's lobe table for one incident direction")
+    p.add_argument("stack", help="stack JSON file or suite case name")
+    p.add_argument("--wi", type=float, required=True, help="incident zenith angle, degrees")
+    p.add_argument("--phi", type=float, default=0.0, help="incident azimuth from the tangent, degrees")
+    p.add_argument("--model", action="append", help="model name (repeatable); default: all")
+    p.set_defaults(fn=cmd_lobes)
+
+    p = sub.add_parser("plot", help="PNG of BRDF slices of every model against the reference")
+    p.add_argument("stack")
+    p.add_argument("-o", "--out")
+    p.add_argument("--spp", type=int, default=512, help="reference walkers per direction")
+    p.add_argument("--wi", default="0,30,60,75", help="incident zenith angles, degrees")
+    p.set_defaults(fn=cmd_plot)
+
+    p = sub.add_parser("luts", help="regenerate the pre-integrated tables (EXR)")
+    p.add_argument("--out", help="output folder (default: the package's data/luts)")
+    p.set_defaults(fn=cmd_luts)
+
+    p = sub.add_parser("references", help="compute and store the BRDF references of the accuracy suite")
+    p.add_argument("--cases", help="comma-separated suite cases (default: all)")
+    p.add_argument("--spp", type=int, default=2048)
+    p.add_argument("--out")
+    p.set_defaults(fn=cmd_references)
+
+    p = sub.add_parser("bench", help="benchmarks")
+    p.add_argument("what", choices=["accuracy"])
+    p.set_defaults(fn=cmd_bench)
+
+    p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")
+    p.add_argument("--out", default="out")
+    p.add_argument("--cases")
+    p.add_argument("--spp", type=int, default=256)
+    p.set_defaults(fn=cmd_demo)
+    return ap
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.fn(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

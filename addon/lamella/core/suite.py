@@ -1,0 +1,56 @@
+"""The accuracy suite: the paper-figure stacks every model is measured on, the incidence angles,
+and the hemisphere grid of outgoing directions (DESIGN.md "Metrics").
+
+The stacks live as JSON in ``lamella/data/stacks`` (``SUITE.json`` lists them with a one-line
+description), so they double as examples for ``lamella lobes`` and ``lamella plot``.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .stack import Stack
+
+STACK_DIR = Path(__file__).resolve().parent.parent / "data" / "stacks"
+WI_DEGREES = (0.0, 30.0, 60.0, 75.0)
+WI_AZIMUTH = 0.0  # incidence plane along the shading tangent
+
+
+def descriptions() -> dict[str, str]:
+    return json.loads((STACK_DIR / "SUITE.json").read_text())
+
+
+def names() -> list[str]:
+    return list(descriptions())
+
+
+def load(name: str) -> Stack:
+    return Stack.from_json((STACK_DIR / f"{name}.json").read_text())
+
+
+def incident(theta_deg: float, phi: float = WI_AZIMUTH) -> np.ndarray:
+    t = math.radians(theta_deg)
+    return np.array([math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)])
+
+
+def wo_grid(wi: np.ndarray, n_theta: int = 24, n_phi: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """Outgoing directions and their solid angles, parameterised by the half vector h (a midpoint
+    grid with theta_h = (pi/2) t^2, so cells crowd around the mirror direction where every lobe
+    of a layered stack is centred). wo = reflect(wi, h), d omega_o = 4 (wi . h) d omega_h; cells
+    whose wo falls below the horizon are dropped. The weights integrate any f over the upper
+    hemisphere: sum(f * weight) ~ integral of f d omega_o."""
+    t = (np.arange(n_theta) + 0.5) / n_theta
+    th = 0.5 * math.pi * t * t
+    dth = 0.5 * math.pi * 2.0 * t / n_theta
+    ph = (np.arange(n_phi) + 0.5) / n_phi * 2.0 * math.pi
+    TH, PH = np.meshgrid(th, ph, indexing="ij")
+    h = np.stack([np.sin(TH) * np.cos(PH), np.sin(TH) * np.sin(PH), np.cos(TH)], -1).reshape(-1, 3)
+    d_omega_h = (np.sin(TH) * dth[:, None] * (2.0 * math.pi / n_phi)).ravel()
+    c = h @ wi
+    wo = 2.0 * c[:, None] * h - wi
+    weight = 4.0 * c * d_omega_h
+    keep = (wo[:, 2] > 1e-6) & (c > 0)
+    return wo[keep], weight[keep]

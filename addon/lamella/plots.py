@@ -1,0 +1,71 @@
+"""BRDF slice plots: each model against the stochastic reference (`lamella plot`)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .core import api, reference
+from .core.models import UnsupportedStack
+from .core.stack import Stack
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def slice_directions(theta_deg: float, plane: str, n: int = 121) -> tuple[np.ndarray, np.ndarray]:
+    """wo along the incidence plane ("in") or across it through the mirror direction ("perp");
+    returns (signed angle in degrees, wo). In the incidence plane the mirror direction sits at
+    +theta_i."""
+    s = np.radians(np.linspace(-89.0, 89.0, n))
+    t = math.radians(theta_deg)
+    if plane == "in":
+        wo = np.stack([-np.sin(s), 0.0 * s, np.cos(s)], -1)
+    else:
+        m = np.array([-math.sin(t), 0.0, math.cos(t)])
+        b = np.array([0.0, 1.0, 0.0])
+        wo = np.cos(s)[:, None] * m + np.sin(s)[:, None] * b
+    keep = wo[:, 2] > 1e-4
+    return np.degrees(s[keep]), wo[keep]
+
+
+def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2019"),
+               thetas=(0.0, 30.0, 60.0, 75.0), spp: int = 512, seed: int = 7, title: str | None = None) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    stack = Stack.coerce(stack)
+    fig, axes = plt.subplots(2, len(thetas), figsize=(4.2 * len(thetas), 7.0), squeeze=False)
+    colors = {"belcour2018": "tab:blue", "weier2020": "tab:orange", "yamaguchi2019": "tab:green"}
+    for col, th in enumerate(thetas):
+        wi = np.array([math.sin(math.radians(th)), 0.0, math.cos(math.radians(th))])
+        for row, plane in enumerate(("in", "perp")):
+            ax = axes[row, col]
+            s, wo = slice_directions(th, plane)
+            mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 17 * col + row)
+            y, e = mean @ LUMA, np.sqrt((err ** 2) @ (LUMA ** 2))
+            ax.fill_between(s, np.maximum(y - 2 * e, 1e-6), y + 2 * e, color="0.8", label="reference ±2σ")
+            ax.plot(s, y, color="k", lw=1.0, label="reference")
+            for m in models:
+                try:
+                    f = api.evaluate(stack, wi, wo, m) @ LUMA
+                except UnsupportedStack:
+                    continue
+                ax.plot(s, f, color=colors.get(m), lw=1.2, ls="--", label=m)
+            ax.set_yscale("log")
+            top = max(float(y.max()), 1e-3)
+            ax.set_ylim(top * 1e-4, top * 3)
+            ax.set_title(f"θi = {th:g}°, {'incidence plane' if plane == 'in' else 'perpendicular plane'}", fontsize=9)
+            ax.set_xlabel("θo (deg, mirror at +θi)" if plane == "in" else "angle from mirror (deg)")
+            if col == 0:
+                ax.set_ylabel("f · cos θo (luminance)")
+    axes[0, 0].legend(fontsize=7, loc="lower left")
+    fig.suptitle(title or stack.name or "stack", fontsize=11)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
