@@ -87,12 +87,19 @@ def cmd_references(a) -> int:
 
 
 def cmd_bench(a) -> int:
-    from .bench import accuracy
+    from .bench import BENCH_DIR
 
     if a.what == "accuracy":
+        from .bench import accuracy
+
         md, js = accuracy.run()
         print(md.read_text())
         print(f"wrote {md} and {js}")
+    elif a.what == "luts":
+        from .bench import luts_error
+
+        md = luts_error.run(BENCH_DIR)
+        print(md.read_text())
     return 0
 
 
@@ -137,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy"])
+    p.add_argument("what", choices=["accuracy", "luts"])
     p.set_defaults(fn=cmd_bench)
 
     p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")

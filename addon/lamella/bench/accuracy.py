@@ -16,10 +16,8 @@ import numpy as np
 from ..core import api, reference, suite
 from ..core.metrics import albedo_error, relative_l1
 from ..core.models import UnsupportedStack
+from . import BENCH_DIR, REFERENCE_DIR
 
-REPO = Path(__file__).resolve().parents[3]
-REFERENCE_DIR = REPO / "tests" / "references" / "brdf"
-BENCH_DIR = REPO / "bench"
 MODELS = ("belcour2018", "weier2020", "yamaguchi2019")
 
 

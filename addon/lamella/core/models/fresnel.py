@@ -17,12 +17,14 @@ def fresnel_dielectric(ops, cos_i, eta):
     cos_t = ops.sqrt(ops.max(1.0 - sin2_t, 0.0))
     rs_den = cos_i + eta * cos_t
     rp_den = eta * cos_i + cos_t
-    # Both denominators vanish only at grazing incidence beyond/at the critical angle, where the
-    # select below returns 1; the max() only keeps the discarded branch finite.
+    # Both denominators vanish only at cos_i = cos_t = 0, i.e. grazing incidence on an
+    # index-matched interface (eta = 1), whose reflectance is 0 (both numerators vanish too).
+    # TIR is strictly sin2_t > 1: at sin2_t = 1 the formulas below are exact (1 at the critical
+    # angle for eta < 1, 0 for eta = 1 at grazing).
     rs = (cos_i - eta * cos_t) / ops.max(rs_den, 1e-30)
     rp = (eta * cos_i - cos_t) / ops.max(rp_den, 1e-30)
     f = 0.5 * (rs * rs + rp * rp)
-    return ops.select(sin2_t >= 1.0, 1.0, ops.min(f, 1.0))
+    return ops.select(sin2_t > 1.0, 1.0, ops.min(f, 1.0))
 
 
 def fresnel_conductor(ops, cos_i, eta, k):
