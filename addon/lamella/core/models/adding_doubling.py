@@ -125,9 +125,11 @@ def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:
             # is transmitted and the mean direction is only carried along (finite) for the lanes
             # whose energy is already zero.
             tsx, tsy = sx / n12, sy / n12
-            st2 = tsx * tsx + tsy * tsy
-            transmits = st2 < 1.0
-            ctt = ops.sqrt(ops.max(1.0 - st2, 0.0))
+            # ctt^2 = (n12^2 - 1 + cti^2) / n12^2: exact for index-matched interfaces at grazing
+            # (the form 1 - |s_t|^2 cancels catastrophically there; see fresnel_dielectric)
+            cos2_num = n12 * n12 - 1.0 + cti * cti
+            transmits = cos2_num > 0.0
+            ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
             R12s = fgd_dielectric(ops, fetch_mu, fetch_alpha, n12)
             R12s = ops.select(transmits, R12s, 1.0)
             T12s = 1.0 - R12s

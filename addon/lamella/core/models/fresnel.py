@@ -13,18 +13,21 @@ def fresnel_dielectric(ops, cos_i, eta):
     """Reflectance of light arriving at cosine ``cos_i`` (>= 0) from a medium of index n1 onto one
     of index n2, ``eta = n2 / n1`` (> 0). Returns 1 under total internal reflection."""
     cos_i = ops.clamp(cos_i, 0.0, 1.0)
-    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-    cos_t = ops.sqrt(ops.max(1.0 - sin2_t, 0.0))
+    # cos_t^2 = 1 - (1 - cos_i^2) / eta^2, written as (eta^2 - 1 + cos_i^2) / eta^2 so that an
+    # index-matched interface gives cos_t = cos_i exactly instead of a cancellation at grazing.
+    eta2 = eta * eta
+    cos2_t_num = (eta2 - 1.0) + cos_i * cos_i
+    cos_t = ops.sqrt(ops.max(cos2_t_num, 0.0) / eta2)
     rs_den = cos_i + eta * cos_t
     rp_den = eta * cos_i + cos_t
     # Both denominators vanish only at cos_i = cos_t = 0, i.e. grazing incidence on an
     # index-matched interface (eta = 1), whose reflectance is 0 (both numerators vanish too).
-    # TIR is strictly sin2_t > 1: at sin2_t = 1 the formulas below are exact (1 at the critical
+    # TIR is strictly cos_t^2 < 0: at cos_t = 0 the formulas below are exact (1 at the critical
     # angle for eta < 1, 0 for eta = 1 at grazing).
     rs = (cos_i - eta * cos_t) / ops.max(rs_den, 1e-30)
     rp = (eta * cos_i - cos_t) / ops.max(rp_den, 1e-30)
     f = 0.5 * (rs * rs + rp * rp)
-    return ops.select(sin2_t > 1.0, 1.0, ops.min(f, 1.0))
+    return ops.select(cos2_t_num < 0.0, 1.0, ops.min(f, 1.0))
 
 
 def fresnel_conductor(ops, cos_i, eta, k):
