@@ -1,0 +1,49 @@
+"""The pre-integrated tables: stored files match their generator, and the error between nodes
+stays within the figures quoted in bench/luts.md."""
+import numpy as np
+import pytest
+
+from lamella.bench.luts_error import METALS, _integrate
+from lamella.core import luts
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.models.fgd import fgd_conductor, fgd_dielectric, gd
+from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
+from lamella.core.models.rgb import RGB
+
+
+@pytest.mark.parametrize("name", list(luts.SPECS))
+def test_stored_tables_have_their_shape_and_range(name):
+    t = luts.table(name)
+    assert t.shape == luts.SPECS[name].shape and t.dtype == np.float32
+    assert np.isfinite(t).all()
+    if name in ("ggx_albedo", "tir"):
+        assert (t >= 0).all() and (t <= 1).all()
+
+
+def test_stored_tables_match_the_generator():
+    """Regenerating (about 10 s) reproduces the committed EXR files: they are not stale."""
+    fresh = luts.generate_ggx_albedo()
+    for name, arr in fresh.items():
+        np.testing.assert_allclose(luts.table(name), arr, atol=2e-6)
+
+
+def test_tir_column_at_eta_one_is_exactly_one():
+    assert (luts.table("tir")[:, :, -1] == 1.0).all()
+    assert (luts.table("tir")[:, 0, :] == 1.0).all()
+
+
+POINTS = [(0.63, 0.07), (0.21, 0.33), (0.9, 0.52), (0.05, 0.12)]
+
+
+@pytest.mark.parametrize("mu,alpha", POINTS)
+def test_off_node_error(mu, alpha):
+    ops = NumpyOps()
+    assert abs(float(gd(ops, mu, alpha)) - _integrate(mu, alpha, lambda c, o: 1.0)) < 2e-3
+    for eta, k in METALS.values():
+        got = list(fgd_conductor(ops, mu, alpha, RGB(*eta), RGB(*k)))
+        for ch in range(3):
+            exact = _integrate(mu, alpha, lambda c, o: fresnel_conductor(ops, c, eta[ch], k[ch]))
+            assert abs(float(got[ch]) - exact) < 5e-3
+    for eta in (1.5, 0.7, 1.02):
+        exact = _integrate(mu, alpha, lambda c, o: fresnel_dielectric(ops, c, eta))
+        assert abs(float(fgd_dielectric(ops, mu, alpha, eta)) - exact) < 2e-2
