@@ -36,7 +36,7 @@ def incident(theta_deg: float, phi: float = WI_AZIMUTH) -> np.ndarray:
     return np.array([math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)])
 
 
-def wo_grid(wi: np.ndarray, n_theta: int = 24, n_phi: int = 32) -> tuple[np.ndarray, np.ndarray]:
+def wo_grid(wi: np.ndarray, n_theta: int = 16, n_phi: int = 24) -> tuple[np.ndarray, np.ndarray]:
     """Outgoing directions and their solid angles, parameterised by the half vector h (a midpoint
     grid with theta_h = (pi/2) t^2, so cells crowd around the mirror direction where every lobe
     of a layered stack is centred). wo = reflect(wi, h), d omega_o = 4 (wi . h) d omega_h; cells
