@@ -60,13 +60,15 @@ def test_single_rough_conductor_is_the_analytic_brdf():
     np.testing.assert_allclose(mean, exact, rtol=1e-10)  # one event: NEE is exact
 
 
-@pytest.mark.parametrize("rot", [0.0, 0.7])
-def test_single_rough_dielectric_is_walter_2007(rot):
-    d = {"layers": [], "base": {"type": "dielectric", "ior": 1.5, "roughness": [0.3, 0.15], "rotation": rot}}
+@pytest.mark.parametrize("rot,ior", [(0.0, 1.5), (0.7, 1.5), (0.3, 1.0 / 1.5)])
+def test_single_rough_dielectric_is_walter_2007(rot, ior):
+    """Both sides of an interface: ior 1/1.5 is light leaving glass (total internal reflection)."""
+    d = {"layers": [], "base": {"type": "dielectric", "ior": ior, "roughness": [0.3, 0.15], "rotation": rot}}
     wi = directions([35.0])[0]
     wo = np.concatenate([directions([10.0, 40.0, 70.0], phi=3.0), directions([10.0, 30.0, 60.0], phi=0.5) * [1, 1, -1]])
     mean, _ = R.eval_brdf_cos(d, wi, wo, spp=16, seed=2)
-    exact = walter(np.broadcast_to(wi, wo.shape), wo, 0.3, 0.15, rot, 1.5)
+    assert mean.max() > 0
+    exact = walter(np.broadcast_to(wi, wo.shape), wo, 0.3, 0.15, rot, ior)
     np.testing.assert_allclose(mean, np.repeat(exact[:, None], 3, 1), rtol=1e-9)
 
 

@@ -62,7 +62,8 @@ def check_outputs(d, model, dtype, wi, wo):
     assert (lb.weight >= 0).all()
     assert ((lb.alpha_x >= 0) & (lb.alpha_x <= 1) & (lb.alpha_y >= 0) & (lb.alpha_y <= 1)).all()
     total = lb.weight.sum(1)
-    slack = 1e-6 if dtype == np.float32 else 1e-12
+    # rounding only: up to 9 lobes, each from ~10 dependent float32 operations near 1 (~5e-6)
+    slack = 5e-6 if dtype == np.float32 else 1e-12
     assert (total <= 1.0 + slack).all(), total.max()
     f = lc.evaluate(d, wi, wo, model, dtype=dtype)
     assert f.dtype == dtype

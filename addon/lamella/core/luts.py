@@ -147,40 +147,25 @@ def _stratified(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _vndf_reflect(mu: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray):
-    """Isotropic GGX, wi = (sqrt(1 - mu^2), 0, mu). Samples visible normals (Heitz 2018, JCGT 7(4),
-    Listing 1) and returns (c = wi.h, wo, weight) where the albedo integral of a function F(c) is
-    E[F(c) * weight] with weight = G2(wi, wo) / G1(wi) for wo above the horizon (height-correlated
-    Smith, Heitz 2014 Eq. 99). Arrays broadcast: mu/alpha (..., 1), u (S,)."""
-    sin_i = np.sqrt(np.maximum(1.0 - mu * mu, 0.0))
-    vx, vz = alpha * sin_i, mu
-    vlen = np.sqrt(vx * vx + vz * vz)
-    vx, vz = vx / vlen, vz / vlen
-    # Heitz 2018: T1 = (-Vy, Vx, 0) / |.| (here Vy = 0), or (1, 0, 0) at normal incidence.
-    t1x = np.where(vx > 0, 0.0, 1.0)
-    t1y = np.where(vx > 0, 1.0, 0.0)
-    # T2 = V x T1
-    t2x, t2y, t2z = -vz * t1y, vz * t1x, vx * t1y
-    r = np.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    p1 = r * np.cos(phi)
-    p2 = r * np.sin(phi)
-    s = 0.5 * (1.0 + vz)
-    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
-    p3 = np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))
-    nx = p1 * t1x + p2 * t2x + p3 * vx
-    ny = p1 * t1y + p2 * t2y
-    nz = p2 * t2z + p3 * vz
-    hx, hy, hz = alpha * nx, alpha * ny, np.maximum(nz, 0.0)
-    hl = np.sqrt(hx * hx + hy * hy + hz * hz)
-    hx, hy, hz = hx / hl, hy / hl, hz / hl
-    c = sin_i * hx + mu * hz
-    ox, oy, oz = 2.0 * c * hx - sin_i, 2.0 * c * hy, 2.0 * c * hz - mu
-    a2 = alpha * alpha
-    lam_i = (np.sqrt(1.0 + a2 * (1.0 - mu * mu) / (mu * mu)) - 1.0) * 0.5
-    ozc = np.maximum(oz, 1e-12)
-    lam_o = (np.sqrt(1.0 + a2 * (ox * ox + oy * oy) / (ozc * ozc)) - 1.0) * 0.5
-    weight = np.where(oz > 0, (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
-    return c, (ox, oy, oz), weight
+    """Isotropic GGX, wi = (sqrt(1 - mu^2), 0, mu): reflections of visible normals sampled with
+    the reference's sampler (Heitz 2018). Returns (c = wi.h, wo, weight) where the albedo integral
+    of F(c) is E[F(c) * weight], weight = G2(wi, wo) / G1(wi) for wo above the horizon
+    (G2 = 1 / (1 + Lambda(wi) + Lambda(wo)), the convention of models/ggx.py). ``mu`` is a
+    scalar array of shape (1, 1), ``alpha`` (A, 1), ``u1``/``u2`` (S,); results are (A, S)."""
+    from .reference import sample_vndf, smith_lambda
+
+    a = np.broadcast_to(alpha, (alpha.shape[0], u1.size)).ravel()
+    m = float(np.asarray(mu).ravel()[0])
+    wi = np.array([math.sqrt(max(1.0 - m * m, 0.0)), 0.0, m])
+    wis = np.broadcast_to(wi, (a.size, 3))
+    h = sample_vndf(wis, a, a, np.tile(u1, alpha.shape[0]), np.tile(u2, alpha.shape[0]))
+    c = h @ wi
+    wo = 2.0 * c[:, None] * h - wi
+    lam_i = smith_lambda(wis, a, a)
+    lam_o = smith_lambda(wo, a, a)
+    weight = np.where(wo[:, 2] > 0, (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+    shape = (alpha.shape[0], u1.size)
+    return c.reshape(shape), tuple(wo[:, k].reshape(shape) for k in range(3)), weight.reshape(shape)
 
 
 MU_FLOOR = 1e-4  # the mu = 0 nodes are integrated at this cosine (the limit is continuous)

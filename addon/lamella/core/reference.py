@@ -76,7 +76,7 @@ def _fresnel_conductor(c, eta, k):
     return np.clip(0.5 * (rp + rs), 0.0, 1.0)
 
 
-def _lambda(w, ax, ay):
+def smith_lambda(w, ax, ay):
     """Smith Lambda of a direction in the interface frame (z may be negative: |z| is used)."""
     z2 = np.maximum(w[..., 2] ** 2, 1e-300)
     t = (ax * ax * w[..., 0] ** 2 + ay * ay * w[..., 1] ** 2) / z2
@@ -85,10 +85,11 @@ def _lambda(w, ax, ay):
 
 def _ggx_d(h, ax, ay):
     t = h[..., 0] ** 2 / (ax * ax) + h[..., 1] ** 2 / (ay * ay) + h[..., 2] ** 2
-    return 1.0 / (math.pi * ax * ay * t * t)
+    # t = 0 only for a degenerate (zero) half vector, e.g. wo = -wi: no microfacet maps one to the other
+    return np.where(t > 0, 1.0 / (math.pi * ax * ay * np.maximum(t, 1e-150) ** 2), 0.0)
 
 
-def _sample_vndf(i, ax, ay, u1, u2):
+def sample_vndf(i, ax, ay, u1, u2):
     """Heitz 2018 Listing 1: a visible normal for direction i (i.z > 0) of anisotropic GGX."""
     vh = np.stack([ax * i[:, 0], ay * i[:, 1], i[:, 2]], -1)
     vh /= np.linalg.norm(vh, axis=1, keepdims=True)
@@ -185,7 +186,7 @@ def _rough_q(L: _Layers, j, i, o, eta_rel, conductor=None):
     ax, ay = L.alpha[j]
     il, ol = L.to_local(j, i), L.to_local(j, o)
     refl = ol[:, 2] > 0
-    lam_i, lam_o = _lambda(il, ax, ay), _lambda(ol, ax, ay)
+    lam_i, lam_o = smith_lambda(il, ax, ay), smith_lambda(ol, ax, ay)
     g2 = 1.0 / (1.0 + lam_i + lam_o)
     # reflection
     hr = il + ol
@@ -415,7 +416,7 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
             _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee)
         ax, ay = L.alpha[j]
         il = L.to_local(j, i_f)
-        h = L.to_world(j, _sample_vndf(il, ax, ay, rng.random(sel.size), rng.random(sel.size)))
+        h = L.to_world(j, sample_vndf(il, ax, ay, rng.random(sel.size), rng.random(sel.size)))
         ci = np.sum(i_f * h, 1)
         o_r = 2.0 * ci[:, None] * h - i_f
         if conductor is not None:
@@ -431,7 +432,7 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
             o_f = np.where(reflect[:, None], o_r, o_t)
             weight_rgb = np.ones((sel.size, 3))
         ol = L.to_local(j, o_f)
-        g = (1.0 + _lambda(il, ax, ay)) / (1.0 + _lambda(il, ax, ay) + _lambda(ol, ax, ay))
+        g = (1.0 + smith_lambda(il, ax, ay)) / (1.0 + smith_lambda(il, ax, ay) + smith_lambda(ol, ax, ay))
         wrong_side = np.where(reflect, o_f[:, 2] <= 0, o_f[:, 2] >= 0)
         beta[sel] *= weight_rgb * np.where(wrong_side, 0.0, g)[:, None]
         dead = wrong_side
