@@ -14,6 +14,11 @@ from pathlib import Path
 import numpy as np
 
 
+def _fail(message: str) -> SystemExit:
+    print(f"lamella: {message}", file=sys.stderr)
+    return SystemExit(2)
+
+
 def _load_stack(arg: str):
     from .core import Stack, StackError, suite
 
@@ -24,8 +29,8 @@ def _load_stack(arg: str):
         if (suite.STACK_DIR / f"{arg}.json").exists():
             return suite.load(arg)
     except StackError as e:
-        raise SystemExit(f"lamella: {p}: {e}") from None
-    raise SystemExit(f"lamella: no stack file or suite case named {arg!r}")
+        raise _fail(f"{p}: {e}") from None
+    raise _fail(f"no stack file or suite case named {arg!r}")
 
 
 def cmd_lobes(a) -> int:

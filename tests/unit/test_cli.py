@@ -1,0 +1,38 @@
+"""The `lamella` command: lobe tables, slice plots, and clear errors on bad stacks."""
+import json
+import subprocess
+import sys
+
+import pytest
+
+from lamella.cli import main
+
+
+def test_lobes_prints_every_model(capsys):
+    assert main(["lobes", "rotated_60", "--wi", "30"]) == 0
+    out = capsys.readouterr().out
+    for m in ("belcour2018", "weier2020", "yamaguchi2019"):
+        assert m in out
+    assert out.count("reflection") == 6  # two lobes per model
+
+
+def test_lobes_reports_unsupported_stacks(tmp_path, capsys):
+    p = tmp_path / "diffuse.json"
+    p.write_text(json.dumps({"layers": [{"ior": 1.5}], "base": {"type": "diffuse"}}))
+    assert main(["lobes", str(p), "--wi", "0"]) == 0
+    assert "unsupported" in capsys.readouterr().out
+
+
+def test_bad_stack_names_layer_and_field(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps({"layers": [{"ior": 1.5, "roughness": 2.0}], "base": {"type": "conductor"}}))
+    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", str(p), "--wi", "0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "coat 0, field 'roughness'" in r.stderr
+
+
+def test_plot_writes_a_png(tmp_path):
+    out = tmp_path / "slices.png"
+    assert main(["plot", "gold_coated", "-o", str(out), "--spp", "8", "--wi", "30"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
