@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test test-slow bench-accuracy references luts clean
+.PHONY: setup demo test bench-accuracy references luts clean
 
 setup: $(STAMP)
 
@@ -20,9 +20,6 @@ demo: setup
 
 test: setup
 	$(VENV)/bin/pytest -q -n 2
-
-test-slow: setup
-	$(VENV)/bin/pytest -q -n 2 -m slow
 
 bench-accuracy: setup
 	$(VENV)/bin/lamella bench accuracy
