@@ -369,7 +369,6 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
 def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng):
     N = L.N
     wj = w[sel]
-    going_up = wj[:, 2] > 0
     n_above, n_below = L.n[j], L.n_below(j)
     is_base = j == N
     i = -wj
