@@ -108,6 +108,17 @@ def cmd_bench(a) -> int:
     return 0
 
 
+def cmd_export_osl(a) -> int:
+    from .core.backends.osl import emit_osl
+
+    stack = _load_stack(a.stack)
+    src = emit_osl(stack, model=a.model, lut_dir=a.lut_dir)
+    out = Path(a.out)
+    out.write_text(src)
+    print(f"wrote {out} ({len(src.splitlines())} lines; tables read from the shader's lut_dir)")
+    return 0
+
+
 def cmd_demo(a) -> int:
     from .core import suite
     from .plots import plot_stack
@@ -151,6 +162,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks")
     p.add_argument("what", choices=["accuracy", "luts"])
     p.set_defaults(fn=cmd_bench)
+
+    p = sub.add_parser("export-osl", help="write a standalone OSL shader for a stack")
+    p.add_argument("stack")
+    p.add_argument("-o", "--out", required=True)
+    p.add_argument("--model", default="auto")
+    p.add_argument("--lut-dir", help="folder of the EXR tables the shader reads (default: the package's)")
+    p.set_defaults(fn=cmd_export_osl)
 
     p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")
     p.add_argument("--out", default="out")

@@ -1,0 +1,149 @@
+"""OSL backend: print the traced model as a straight-line Cycles OSL shader (DESIGN.md "One model,
+three backends"; issue 3).
+
+The model is traced once with ``Tracer`` (layer loops unrolled, structure resolved, constants
+folded, sub-expressions shared); every graph node becomes one ``float``/``int`` temporary, every
+per-layer parameter a shader input (so the Script node shows it as a socket), and every lobe a GGX
+``microfacet`` closure weighted by its energy over GD (paper 001 Eq. 37: Cycles' single-scattering
+GGX closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
+the helpers of ``osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
+tables in ``lut_dir``.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .. import luts
+from ..models import run_model, variant
+from ..models.fgd import gd
+from ..models.variance import rms_alpha
+from ..stack import Stack
+from .trace import Expr, Tracer
+
+OSL_DIR = Path(__file__).resolve().parents[4] / "osl"
+LUT_HEADER = "lamella_luts.h"
+ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure
+
+_BIN = {"add": "+", "sub": "-", "mul": "*", "div": "/", "lt": "<", "le": "<=", "gt": ">", "ge": ">="}
+_CMP = {"lt", "le", "gt", "ge"}
+_FUN = {"sqrt": "sqrt", "exp": "exp", "log": "log", "pow": "pow", "abs": "fabs", "min": "min",
+        "max": "max", "cos": "cos", "sin": "sin", "atan2": "atan2"}
+
+
+def _literal(x: float) -> str:
+    if not math.isfinite(x):
+        raise ValueError(f"non-finite literal {x!r} in the traced model")
+    r = repr(float(x))
+    return r if ("." in r or "e" in r) else r + ".0"
+
+
+def _identifier(name: str) -> str:
+    out = "".join(ch if ch.isalnum() else "_" for ch in name)
+    return out if out[:1].isalpha() else "s_" + out
+
+
+class _Printer:
+    def __init__(self, tracer: Tracer):
+        self.t = tracer
+        self.names: dict[int, str] = {}
+        self.lines: list[str] = []
+
+    def ref(self, a) -> str:
+        if isinstance(a, Expr):
+            return self.names[id(a)]
+        return _literal(a)
+
+    def emit(self, outputs) -> None:
+        for n, e in enumerate(self.t.live_nodes(outputs)):
+            if e.op == "param":
+                self.names[id(e)] = _identifier(e.args[0])
+                continue
+            if e.op == "input":
+                self.names[id(e)] = e.args[0]
+                continue
+            name = f"t{n}"
+            self.names[id(e)] = name
+            a = e.args
+            if e.op in _BIN:
+                rhs = f"{self.ref(a[0])} {_BIN[e.op]} {self.ref(a[1])}"
+            elif e.op == "select":
+                rhs = f"{self.ref(a[0])} ? {self.ref(a[1])} : {self.ref(a[2])}"
+            elif e.op == "lut":
+                rhs = self._lut(a[0], [self.ref(c) for c in a[1:]])
+            else:
+                rhs = f"{_FUN[e.op]}({', '.join(self.ref(x) for x in a)})"
+            self.lines.append(f"    {'int' if e.op in _CMP else 'float'} {name} = {rhs};")
+
+    @staticmethod
+    def _lut(name: str, coords: list[str]) -> str:
+        spec = luts.SPECS[name]
+        f = f'concat(lut_dir, "/{spec.file}")'
+        if len(spec.shape) == 2:
+            return f"lamella_lut2({f}, {coords[0]}, {coords[1]}, {spec.shape[0]}, {spec.shape[1]})"
+        return (f"lamella_lut3({f}, {coords[0]}, {coords[1]}, {coords[2]}, "
+                f"{spec.shape[0]}, {spec.shape[1]}, {spec.shape[2]})")
+
+
+def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None) -> str:
+    """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``."""
+    stack = Stack.coerce(stack)
+    v = variant(model)
+    t = Tracer()
+    wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
+    lobes = run_model(t, stack, wi, v)
+    outputs, closures = [], []
+    for lobe in lobes:
+        norm = 1.0 / t.max(gd(t, wi[2], rms_alpha(t, lobe.alpha_x, lobe.alpha_y)), 1e-6)
+        w = [c * norm for c in lobe.weight]
+        closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
+        outputs.extend([*w, lobe.alpha_x, lobe.alpha_y, closures[-1][3], closures[-1][4]])
+    p = _Printer(t)
+    p.emit(outputs)
+
+    shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
+    params = [f"    float {_identifier(k)} = {_literal(float(t.defaults[k]))}," for k in sorted(t.params)]
+    lut_path = str(Path(lut_dir) if lut_dir else luts.DATA_DIR)
+    body = [
+        "    // local shading frame: z = N, x = the shading tangent (default: radial about world z)",
+        "    vector Tn = Tangent - dot(Tangent, Normal) * Normal;",
+        "    if (length(Tn) < 1e-8) Tn = vector(-P[1], P[0], 0.0) - dot(vector(-P[1], P[0], 0.0), Normal) * Normal;",
+        "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(0.0, 1.0, 0.0));",
+        "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(1.0, 0.0, 0.0));",
+        "    Tn = normalize(Tn);",
+        "    vector Bn = cross(Normal, Tn);",
+        "    vector V = normalize(I);  // Cycles' I points toward the viewer",
+        "    float wi_x = dot(V, Tn);",
+        "    float wi_y = dot(V, Bn);",
+        "    float wi_z = dot(V, Normal);",
+        *p.lines,
+        "    BSDF = 0;",
+    ]
+    for k, (w, ax, ay, c, s) in enumerate(closures):
+        r, g, b = (p.ref(x) for x in w)
+        body += [
+            f"    // lobe {k}: {'coat ' + str(k) if k < len(stack.coats) else 'base'} and everything it sends back up",
+            f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
+            f"        BSDF += color({r}, {g}, {b}) * microfacet(\"ggx\", Normal, "
+            f"normalize({p.ref(c)} * Tn + {p.ref(s)} * Bn), {p.ref(ax)}, {p.ref(ay)}, 1.0, 0);",
+        ]
+    header = (OSL_DIR / LUT_HEADER).read_text()
+    desc = stack.to_json(indent=None)
+    return "\n".join([
+        f"// Generated by Lamella (model {v.name}) -- do not edit; regenerate with `lamella export-osl`.",
+        f"// stack: {desc}",
+        "#include \"stdosl.h\"",
+        "",
+        header.rstrip(),
+        "",
+        f"shader {shader}(",
+        *params,
+        "    normal Normal = N,",
+        "    vector Tangent = vector(0.0, 0.0, 0.0),",
+        f"    string lut_dir = \"{lut_path}\",",
+        "    output closure color BSDF = 0)",
+        "{",
+        *body,
+        "}",
+        "",
+    ])
