@@ -119,6 +119,18 @@ def cmd_export_osl(a) -> int:
     return 0
 
 
+def cmd_render(a) -> int:
+    from .blender.render import render_stack
+
+    stack = _load_stack(a.stack)
+    sun = tuple(float(x) for x in a.sun_dir.split(","))
+    out = Path(a.out or f"out/{stack.name or Path(a.stack).stem}_{a.scene}_{a.engine}.exr")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    _, seconds = render_stack(stack, a.scene, sun_dir=sun, res=a.res, spp=a.spp, engine=a.engine, out=out)
+    print(f"render time {seconds:.2f} s -> {out}")
+    return 0
+
+
 def cmd_demo(a) -> int:
     from .core import suite
     from .plots import plot_stack
@@ -169,6 +181,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default="auto")
     p.add_argument("--lut-dir", help="folder of the EXR tables the shader reads (default: the package's)")
     p.set_defaults(fn=cmd_export_osl)
+
+    p = sub.add_parser("render", help="render a stack into a canonical sphere scene (linear float EXR)")
+    p.add_argument("stack")
+    p.add_argument("--scene", choices=["sphere-env", "sphere-sun"], default="sphere-env")
+    p.add_argument("--sun-dir", default="0,-1,1", help="world direction from the surface toward the sun")
+    p.add_argument("--res", type=int, default=96)
+    p.add_argument("--spp", type=int, default=32)
+    p.add_argument("--engine", choices=["cycles-osl", "principled"], default="cycles-osl")
+    p.add_argument("--out")
+    p.set_defaults(fn=cmd_render)
 
     p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")
     p.add_argument("--out", default="out")

@@ -1,0 +1,156 @@
+"""Canonical sphere scenes (DESIGN.md "Contract: the canonical sphere scenes") rendered headless
+through bpy. Used by `lamella render`, the references and the tests: one code path."""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+ENGINES = ("cycles-osl", "principled")
+SCENES = ("sphere-env", "sphere-sun")
+DEFAULT_SUN_DIR = (0.0, -1.0, 1.0)
+
+
+def _bpy():
+    import bpy
+
+    return bpy
+
+
+def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR):
+    bpy = _bpy()
+    from mathutils import Vector
+
+    if scene not in SCENES:
+        raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = "CYCLES"
+    sc.cycles.device = "CPU"
+    sc.cycles.shading_system = True
+    sc.cycles.samples = spp
+    sc.cycles.seed = 0
+    sc.view_settings.view_transform = "Standard"
+    sc.render.resolution_x = sc.render.resolution_y = res
+    sc.render.resolution_percentage = 100
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0, location=(0, 0, 0))
+    sphere = bpy.context.object
+    bpy.ops.object.shade_smooth()
+    cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 2.2
+    cam.location = (0.0, -10.0, 0.0)
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looks along +y, up = +z
+    world = bpy.data.worlds.new("world")
+    sc.world = world
+    nodes = world.node_tree.nodes
+    bg = nodes["Background"]
+    if scene == "sphere-env":
+        hdri = Path(bpy.utils.system_resource("DATAFILES", path="studiolights/world")) / "forest.exr"
+        env = nodes.new("ShaderNodeTexEnvironment")
+        env.image = bpy.data.images.load(str(hdri))
+        world.node_tree.links.new(env.outputs["Color"], bg.inputs["Color"])
+        bg.inputs["Strength"].default_value = 1.0
+    else:
+        bg.inputs["Strength"].default_value = 0.0
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sc.collection.objects.link(sun)
+        sun.data.energy = 3.0
+        sun.data.angle = 0.0
+        d = Vector(sun_dir).normalized()
+        sun.rotation_euler = d.to_track_quat("Z", "Y").to_euler()  # the lamp shines along its -Z
+    return sc, sphere
+
+
+def assign_material(sphere, stack, engine: str):
+    bpy = _bpy()
+    mat = bpy.data.materials.new("lamella")
+    sphere.data.materials.append(mat)
+    nt = mat.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    if engine == "cycles-osl":
+        import cycles.osl
+
+        from ..core.backends.osl import emit_osl
+
+        node = nt.nodes.new("ShaderNodeScript")
+        node.mode = "INTERNAL"
+        text = bpy.data.texts.new("lamella.osl")
+        text.write(emit_osl(stack))
+        node.script = text
+        errors = []
+        if not cycles.osl.update_script_node(node, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None) \
+                or "BSDF" not in node.outputs:
+            raise RuntimeError(f"OSL compile failed: {errors}")
+        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    elif engine == "principled":
+        nt.links.new(_principled(nt, stack).outputs["BSDF"], out.inputs["Surface"])
+    else:
+        raise ValueError(f"engine {engine!r} is not available yet (have: {', '.join(ENGINES)})")
+    return mat
+
+
+def _principled(nt, stack):
+    """The closest Principled BSDF stand-in artists use today: a metal with the conductor's
+    normal-incidence colour and roughness, under one clear coat with the top coat's IOR and
+    roughness (Blender roughness r = sqrt(alpha))."""
+    from ..core.stack import Conductor
+
+    p = nt.nodes.new("ShaderNodeBsdfPrincipled")
+    b = stack.base
+    if isinstance(b, Conductor):
+        n_top = stack.coats[-1].ior if stack.coats else 1.0
+        f0 = [((e / n_top - 1) ** 2 + (k / n_top) ** 2) / ((e / n_top + 1) ** 2 + (k / n_top) ** 2) for e, k in zip(b.eta, b.k)]
+        p.inputs["Base Color"].default_value = (*f0, 1.0)
+        p.inputs["Metallic"].default_value = 1.0
+        ax, ay = b.roughness
+        p.inputs["Roughness"].default_value = math.sqrt(math.sqrt(ax * ay))
+    if stack.coats:
+        top = stack.coats[0]
+        p.inputs["Coat Weight"].default_value = 1.0
+        p.inputs["Coat IOR"].default_value = top.ior
+        p.inputs["Coat Roughness"].default_value = math.sqrt(math.sqrt(top.roughness[0] * top.roughness[1]))
+    return p
+
+
+def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
+                 out: str | Path | None = None, filter_width: float | None = None):
+    """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
+    render seconds). Writes a linear float EXR to ``out`` if given."""
+    import tempfile
+
+    import OpenEXR
+
+    from ..core.stack import Stack
+
+    bpy = _bpy()
+    stack = Stack.coerce(stack)
+    sc, sphere = build_scene(scene, res, spp, sun_dir)
+    if filter_width is not None:
+        sc.cycles.filter_width = filter_width
+    assign_material(sphere, stack, engine)
+    with tempfile.TemporaryDirectory() as tmp:
+        sc.render.image_settings.file_format = "OPEN_EXR"
+        sc.render.image_settings.color_depth = "32"
+        sc.render.filepath = str(Path(tmp) / "render.exr")
+        t0 = time.time()
+        bpy.ops.render.render(write_still=True)
+        seconds = time.time() - t0
+        with OpenEXR.File(str(Path(tmp) / "render.exr")) as f:
+            px = np.array(f.channels()["RGBA"].pixels, dtype=np.float32)
+    if out is not None:
+        write_exr(out, px)
+    return px, seconds
+
+
+def write_exr(path, rgba: np.ndarray) -> None:
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGBA": np.ascontiguousarray(rgba, dtype=np.float32)}) as f:
+        f.write(str(path))
