@@ -28,9 +28,11 @@ def _load_stack(arg: str):
             return Stack.from_json(p.read_text())
         if (suite.STACK_DIR / f"{arg}.json").exists():
             return suite.load(arg)
+        if (suite.EXAMPLE_DIR / f"{arg}.json").exists():
+            return suite.example(arg)
     except StackError as e:
         raise _fail(f"{p}: {e}") from None
-    raise _fail(f"no stack file or suite case named {arg!r}")
+    raise _fail(f"no stack file, suite case or example named {arg!r}")
 
 
 def cmd_lobes(a) -> int:
@@ -105,6 +107,12 @@ def cmd_bench(a) -> int:
 
         md = luts_error.run(BENCH_DIR)
         print(md.read_text())
+    elif a.what == "images":
+        from .bench import images
+
+        md, js = images.run(a.cases.split(",") if a.cases else None)
+        print(md.read_text())
+        print(f"wrote {md}, {js} and bench/images/*.png")
     return 0
 
 
@@ -128,6 +136,18 @@ def cmd_render(a) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     _, seconds = render_stack(stack, a.scene, sun_dir=sun, res=a.res, spp=a.spp, engine=a.engine, out=out)
     print(f"render time {seconds:.2f} s -> {out}")
+    return 0
+
+
+def cmd_image_references(a) -> int:
+    from .bench import image_references as ir
+
+    cases = a.cases.split(",") if a.cases else None
+    command = "lamella image-references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp} --res {a.res}"
+    if a.thickness is not None:
+        command += f" --thickness {a.thickness}"
+    ir.compute(cases, res=a.res, spp=a.spp, out_dir=Path(a.out) if a.out else ir.IMAGE_REFERENCE_DIR,
+               thickness=a.thickness, command=command)
     return 0
 
 
@@ -172,7 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts"])
+    p.add_argument("what", choices=["accuracy", "luts", "images"])
+    p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)
 
     p = sub.add_parser("export-osl", help="write a standalone OSL shader for a stack")
@@ -184,13 +205,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", help="render a stack into a canonical sphere scene (linear float EXR)")
     p.add_argument("stack")
-    p.add_argument("--scene", choices=["sphere-env", "sphere-sun"], default="sphere-env")
+    p.add_argument("--scene", choices=["sphere-env", "sphere-sun", "white-furnace"], default="sphere-env",
+                   help="white-furnace: uniform white world, each pixel shows the directional albedo")
     p.add_argument("--sun-dir", default="0,-1,1", help="world direction from the surface toward the sun")
     p.add_argument("--res", type=int, default=96)
     p.add_argument("--spp", type=int, default=32)
-    p.add_argument("--engine", choices=["cycles-osl", "principled"], default="cycles-osl")
+    p.add_argument("--engine", choices=["cycles-osl", "principled", "reference"], default="cycles-osl",
+                   help="reference: the stack as nested interface spheres, path traced (slow)")
     p.add_argument("--out")
     p.set_defaults(fn=cmd_render)
+
+    p = sub.add_parser("image-references",
+                       help="render and store the brute-force image references (nested interface spheres)")
+    p.add_argument("--cases", help="comma-separated suite cases (default: all)")
+    p.add_argument("--spp", type=int, default=2048, help="total samples per pixel (two seeds of half each)")
+    p.add_argument("--res", type=int, default=128)
+    p.add_argument("--thickness", type=float, help="shell thickness per coat (default 0.004 of the radius)")
+    p.add_argument("--out", help="output folder (default: tests/references/images)")
+    p.set_defaults(fn=cmd_image_references)
 
     p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")
     p.add_argument("--out", default="out")

@@ -2,13 +2,14 @@
 cycles-osl render equals lamella.core.evaluate for that pixel's normal, radial tangent and view.
 
 Tolerances, and why: the filter width is shrunk to 0.01 px so each pixel is one ray through its
-centre, leaving float32 arithmetic, bilinear texture reads of the tables in OSL versus numpy, and
+centre, and the canonical scene renders without denoiser, adaptive sampling, glossy filter or
+clamping, leaving float32 arithmetic, bilinear texture reads of the tables in OSL versus numpy, and
 the UV sphere's interpolated normals versus the exact sphere normal used here. The last grows
 toward the rim and in very narrow highlights, where f changes fastest with the normal, so the
-per-pixel relative error is judged where the view is within 60 deg of the normal: median < 1 %,
-98th percentile < 5 % (measured: median 0.03-0.27 %, p98 1.7-4.7 %, the largest for rotated_60's
-alpha-0.01 anisotropic highlight). Rendering the shading-normal pass to remove the mesh term is
-the next refinement."""
+per-pixel relative error is judged where the view is within 60 deg of the normal: median < 0.2 %,
+98th percentile < 1 % (measured on 7 stacks: median 0.001-0.06 %, p98 0.16-0.23 %). Until the
+canonical scene switched Cycles' default denoiser off, the p98 was 1.7-4.7 %: that was the
+denoiser, not the model."""
 import math
 
 import numpy as np
@@ -43,9 +44,15 @@ def pixel_frames(res):
     return hit, local(np.array([0.0, -1.0, 0.0])), local(SUN)
 
 
-@pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "tinted_varnish", "three_coats"])
+CASES = ["gold_coated", "coat_over_brushed", "rotated_60", "opposing_anisotropy", "tinted_varnish", "three_coats",
+         "four_coats"]
+
+
+@pytest.mark.parametrize("case", CASES)
 def test_osl_render_equals_numpy(case):
-    stack = suite.load(case)
+    """Isotropic, anisotropic, rotated and opposing anisotropy, an absorbing coat, 3 coats, and 4
+    coats mixing all of them (examples/four_coats.json)."""
+    stack = suite.example(case) if (suite.EXAMPLE_DIR / f"{case}.json").exists() else suite.load(case)
     px, _ = render_stack(stack, "sphere-sun", sun_dir=SUN, res=RES, spp=4, filter_width=0.01)
     assert np.isfinite(px).all() and (px >= 0).all()
     hit, wi, wo = pixel_frames(RES)
@@ -56,5 +63,5 @@ def test_osl_render_equals_numpy(case):
     core = (wi[lit][:, 2] > 0.5)
     rel = (np.abs(g - f) / np.maximum(f, 1e-3 * peak))[core]
     print(case, "median", np.median(rel), "p98", np.percentile(rel, 98), "abs/peak", np.abs(g - f).max() / peak)
-    assert np.median(rel) < 0.01, np.median(rel)
-    assert np.percentile(rel, 98) < 0.05, np.percentile(rel, 98)
+    assert np.median(rel) < 0.002, np.median(rel)
+    assert np.percentile(rel, 98) < 0.01, np.percentile(rel, 98)

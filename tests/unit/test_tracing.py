@@ -69,7 +69,10 @@ def test_traces_to_a_finite_graph_equal_to_numpy(kind, model):
     assert len(lobes) == n_coats + 1
     # every per-layer parameter is a graph input, not a literal
     assert {f"coat{i}_ior" for i in range(n_coats)} <= set(t.params)
-    assert {"base_eta_r", "base_k_b", "base_alpha_x", "base_rotation"} <= set(t.params)
+    assert {"base_eta_r", "base_k_b"} <= set(t.params)
+    ax, ay = lc.Stack.from_dict(d).base.roughness
+    expected = {"base_alpha"} if ax == ay else {"base_alpha_x", "base_alpha_y", "base_rotation"}
+    assert {p for p in t.params if p.startswith("base_") and "alpha" in p or p == "base_rotation"} == expected
     absorbing = {i for i, c in enumerate(d["layers"]) if c["thickness"] > 0 and max(c["sigma_a"]) > 0}
     assert {int(p[4]) for p in t.params if p.endswith("_thickness")} == absorbing
     wi_np, wo_np = random_dirs(64, 1), random_dirs(64, 2)
@@ -111,3 +114,19 @@ def test_constants_fold_and_subexpressions_are_shared():
     b = t.sqrt(x * x + 1.0)
     assert a is b
     assert len(t.live_nodes([a])) == 4  # input, mul, add, sqrt
+
+
+@pytest.mark.parametrize("model", ["weier2020", "yamaguchi2019"])
+def test_isotropic_stack_traces_without_anisotropy_code(model):
+    """Skip what the stack does not need: isotropic layers become one roughness input, and no
+    rotation, covariance or eigen-decomposition survives in the graph (they fold away)."""
+    t, wi, wo, lobes, outputs = trace(KINDS["absorbing coat"], model)
+    live = t.live_nodes(outputs)
+    assert not [n for n in live if n.op in ("atan2", "cos", "sin")]
+    assert not [p for p in t.params if "rotation" in p or p.endswith(("_alpha_x", "_alpha_y"))]
+    for lobe in lobes:
+        assert lobe.alpha_x is lobe.alpha_y
+        assert lobe.rotation == 0.0
+    # the anisotropic stack keeps them
+    t, wi, wo, lobes, outputs = trace(KINDS["rotated anisotropic"], model)
+    assert [n for n in t.live_nodes(outputs) if n.op in ("cos", "sin")]

@@ -8,8 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-ENGINES = ("cycles-osl", "principled")
-SCENES = ("sphere-env", "sphere-sun")
+ENGINES = ("cycles-osl", "principled", "reference")
+SCENES = ("sphere-env", "sphere-sun", "white-furnace")
+# white-furnace (not a canonical comparison scene): a uniform white world of radiance 1, so every
+# sphere pixel shows the material's directional albedo for that pixel's view direction.
 DEFAULT_SUN_DIR = (0.0, -1.0, 1.0)
 
 
@@ -19,7 +21,10 @@ def _bpy():
     return bpy
 
 
-def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR):
+def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: int = 0):
+    """The canonical scene, unbiased: no denoiser, no adaptive sampling, no glossy filter and no
+    sample clamping, so that renders converge to the same image at any spp and differences
+    between engines are the materials' alone."""
     bpy = _bpy()
     from mathutils import Vector
 
@@ -31,7 +36,12 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR):
     sc.cycles.device = "CPU"
     sc.cycles.shading_system = True
     sc.cycles.samples = spp
-    sc.cycles.seed = 0
+    sc.cycles.seed = seed
+    sc.cycles.use_denoising = False
+    sc.cycles.use_adaptive_sampling = False
+    sc.cycles.blur_glossy = 0.0
+    sc.cycles.sample_clamp_direct = 0.0
+    sc.cycles.sample_clamp_indirect = 0.0
     sc.view_settings.view_transform = "Standard"
     sc.render.resolution_x = sc.render.resolution_y = res
     sc.render.resolution_percentage = 100
@@ -54,6 +64,9 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR):
         env = nodes.new("ShaderNodeTexEnvironment")
         env.image = bpy.data.images.load(str(hdri))
         world.node_tree.links.new(env.outputs["Color"], bg.inputs["Color"])
+        bg.inputs["Strength"].default_value = 1.0
+    elif scene == "white-furnace":
+        bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
         bg.inputs["Strength"].default_value = 1.0
     else:
         bg.inputs["Strength"].default_value = 0.0
@@ -88,6 +101,8 @@ def assign_material(sphere, stack, engine: str):
                 or "BSDF" not in node.outputs:
             raise RuntimeError(f"OSL compile failed: {errors}")
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    elif engine == "reference":
+        raise ValueError("the reference engine builds geometry, not a material: use render_stack")
     elif engine == "principled":
         nt.links.new(_principled(nt, stack).outputs["BSDF"], out.inputs["Surface"])
     else:
@@ -119,9 +134,11 @@ def _principled(nt, stack):
 
 
 def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
-                 out: str | Path | None = None, filter_width: float | None = None):
+                 out: str | Path | None = None, filter_width: float | None = None, seed: int = 0,
+                 thickness: float | None = None):
     """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
-    render seconds). Writes a linear float EXR to ``out`` if given."""
+    render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
+    the stack as nested interface spheres (reference_scene) of shell ``thickness``."""
     import tempfile
 
     import OpenEXR
@@ -130,10 +147,15 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
 
     bpy = _bpy()
     stack = Stack.coerce(stack)
-    sc, sphere = build_scene(scene, res, spp, sun_dir)
+    sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed)
     if filter_width is not None:
         sc.cycles.filter_width = filter_width
-    assign_material(sphere, stack, engine)
+    if engine == "reference":
+        from .reference_scene import SHELL_THICKNESS, build_reference
+
+        build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS)
+    else:
+        assign_material(sphere, stack, engine)
     with tempfile.TemporaryDirectory() as tmp:
         sc.render.image_settings.file_format = "OPEN_EXR"
         sc.render.image_settings.color_depth = "32"

@@ -15,6 +15,9 @@ import numpy as np
 from .stack import Stack
 
 STACK_DIR = Path(__file__).resolve().parent.parent / "data" / "stacks"
+# Stacks outside the accuracy suite (no stored references), e.g. the 4-coat stress stack the OSL
+# exactness test and the shader-cost table use.
+EXAMPLE_DIR = Path(__file__).resolve().parent.parent / "data" / "examples"
 WI_DEGREES = (0.0, 30.0, 60.0, 75.0)
 WI_AZIMUTH = 0.0  # incidence plane along the shading tangent
 
@@ -29,6 +32,10 @@ def names() -> list[str]:
 
 def load(name: str) -> Stack:
     return Stack.from_json((STACK_DIR / f"{name}.json").read_text())
+
+
+def example(name: str) -> Stack:
+    return Stack.from_json((EXAMPLE_DIR / f"{name}.json").read_text())
 
 
 def incident(theta_deg: float, phi: float = WI_AZIMUTH) -> np.ndarray:

@@ -176,7 +176,10 @@ _FOLD.update({
 
 def _simplify(op, args):
     """Algebraic identities with a literal operand (x + 0, x * 1, x * 0 with x finite by
-    construction, x / 1, select on equal branches)."""
+    construction, x / 1), select on equal branches, x - x = 0 (x finite by construction) and
+    min/max of a value with itself. With hash-consing these let structure the stack does not have
+    vanish: an isotropic layer's x and y statistics are one node, so their difference, the
+    covariance and the lobe rotation fold to 0."""
     if op in ("add", "sub") and _is_num(args[1]) and args[1] == 0.0:
         return args[0]
     if op == "add" and _is_num(args[0]) and args[0] == 0.0:
@@ -191,4 +194,8 @@ def _simplify(op, args):
         return args[0]
     if op == "select" and args[1] is args[2]:
         return args[1]
+    if op == "sub" and args[0] is args[1] and not _is_num(args[0]):
+        return 0.0
+    if op in ("min", "max") and args[0] is args[1]:
+        return args[0]
     return None

@@ -76,10 +76,7 @@ def layer_params(ops, stack: Stack):
     """Every per-layer parameter as a backend value (a shader input when traced)."""
     coats = []
     for i, c in enumerate(stack.coats):
-        p = {"ior": ops.param(f"coat{i}_ior", c.ior),
-             "ax": ops.param(f"coat{i}_alpha_x", c.roughness[0]),
-             "ay": ops.param(f"coat{i}_alpha_y", c.roughness[1]),
-             "rotation": ops.param(f"coat{i}_rotation", c.rotation)}
+        p = {"ior": ops.param(f"coat{i}_ior", c.ior), **_roughness_params(ops, f"coat{i}", c.roughness, c.rotation)}
         if c.has_absorption:
             p["thickness"] = ops.param(f"coat{i}_thickness", c.thickness)
             p["sigma_a"] = RGB(*(ops.param(f"coat{i}_sigma_a_{ch}", v) for ch, v in zip("rgb", c.sigma_a)))
@@ -87,10 +84,21 @@ def layer_params(ops, stack: Stack):
     b = stack.base
     base = {"eta": RGB(*(ops.param(f"base_eta_{ch}", v) for ch, v in zip("rgb", b.eta))),
             "k": RGB(*(ops.param(f"base_k_{ch}", v) for ch, v in zip("rgb", b.k))),
-            "ax": ops.param("base_alpha_x", b.roughness[0]),
-            "ay": ops.param("base_alpha_y", b.roughness[1]),
-            "rotation": ops.param("base_rotation", b.rotation)}
+            **_roughness_params(ops, "base", b.roughness, b.rotation)}
     return coats, base
+
+
+def _roughness_params(ops, prefix: str, roughness, rotation) -> dict:
+    """An isotropic layer is one input ``<prefix>_alpha`` with no rotation (rotation has no effect
+    on it): the traced shader then carries no anisotropy or rotation code for it. An anisotropic
+    layer has ``_alpha_x``, ``_alpha_y`` and ``_rotation`` inputs. Which of the two a layer is,
+    is part of the stack's structure (a different shader), like the number of coats."""
+    ax, ay = roughness
+    if ax == ay:
+        a = ops.param(f"{prefix}_alpha", ax)
+        return {"ax": a, "ay": a, "rotation": 0.0}
+    return {"ax": ops.param(f"{prefix}_alpha_x", ax), "ay": ops.param(f"{prefix}_alpha_y", ay),
+            "rotation": ops.param(f"{prefix}_rotation", rotation)}
 
 
 def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:

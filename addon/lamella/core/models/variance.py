@@ -160,6 +160,9 @@ class CovarianceVariance:
         half_tr = 0.5 * (self.xx + self.yy)
         half_diff = 0.5 * (self.xx - self.yy)
         r = ops.sqrt(half_diff * half_diff + self.xy * self.xy)
+        if isinstance(r, float) and r == 0.0:  # isotropic by structure (traced): no eigen-split
+            a = mapping.to_roughness(ops, ops.max(half_tr, 0.0))
+            return a, a, 0.0
         major = half_tr + r
         minor = ops.max(half_tr - r, 0.0)
         angle = 0.5 * ops.atan2(self.xy, half_diff)
