@@ -146,8 +146,10 @@ def cmd_image_references(a) -> int:
     command = "lamella image-references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp} --res {a.res}"
     if a.thickness is not None:
         command += f" --thickness {a.thickness}"
-    ir.compute(cases, res=a.res, spp=a.spp, out_dir=Path(a.out) if a.out else ir.IMAGE_REFERENCE_DIR,
-               thickness=a.thickness, command=command)
+    out = Path(a.out) if a.out else ir.IMAGE_REFERENCE_DIR
+    if a.add:
+        command = ir.load_index(out).get("command", command) + f"; refined by {command} --add"
+    ir.compute(cases, res=a.res, spp=a.spp, out_dir=out, thickness=a.thickness, command=command, add=a.add)
     return 0
 
 
@@ -222,6 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--res", type=int, default=128)
     p.add_argument("--thickness", type=float, help="shell thickness per coat (default 0.004 of the radius)")
     p.add_argument("--out", help="output folder (default: tests/references/images)")
+    p.add_argument("--add", action="store_true", help="refine the stored references by --spp more samples")
     p.set_defaults(fn=cmd_image_references)
 
     p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")

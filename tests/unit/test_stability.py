@@ -98,3 +98,16 @@ EXTREMES = [
 def test_extreme_stacks(model, dtype, d):
     wi = edge_directions([0.2, 0.9])
     check_outputs(d, model, dtype, wi, wi[::-1])
+
+
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_back_facing_view_is_finite(model, dtype):
+    """A shading normal facing away from the viewer (N.I <= 0: smooth-shaded silhouettes, bump
+    maps) is valid input: the shader must stay finite and passive there (issue 3)."""
+    d = {"layers": [{"ior": 1.5, "roughness": [0.1, 0.02], "rotation": 0.5, "thickness": 1.0,
+                     "sigma_a": [0.1, 0.5, 2.0]}, {"ior": 1.3, "roughness": 0.05}],
+         "base": {"type": "conductor", "roughness": 0.1}}
+    cos = np.array([-1.0, -0.5, -1e-3, -1e-7, -0.0])
+    wi = np.stack([np.sqrt(1.0 - cos * cos), np.zeros_like(cos), cos], -1)
+    check_outputs(d, model, dtype, wi, edge_directions([])[:5])

@@ -1,9 +1,9 @@
 """Stored image references (issue 3): every suite case rendered as nested interface spheres
 (``lamella.blender.reference_scene``) in the canonical ``sphere-env`` scene.
 
-Each reference is the average of two renders with different seeds; half their per-pixel RMS
-difference is the reference's own noise at its full sample count (the noise floor reported beside
-every image error in ``bench/images.md``). Tests read these files; they never regenerate them:
+Each reference is the average of renders ("chunks") with seeds 0, 1, 2, ...; the spread between
+chunks gives the reference's own noise at its full sample count (the noise floor reported beside
+every image error in ``bench/images.md``). ``--add`` refines stored references by two more chunks. Tests read these files; they never regenerate them:
 ``make image-references`` (or the command stored in ``INDEX.json``) does.
 """
 from __future__ import annotations
@@ -52,39 +52,69 @@ def load_index(out_dir: Path = IMAGE_REFERENCE_DIR) -> dict:
     return json.loads(p.read_text()) if p.exists() else {"cases": {}}
 
 
-def render_reference(name: str, res: int = RES, spp: int = SPP, thickness: float | None = None):
-    """(RGBA mean image, noise RMSE over the sphere, seconds) for suite case ``name``."""
+def render_chunks(name: str, seeds, chunk_spp: int, res: int = RES, thickness: float | None = None):
+    """The reference renders of suite case ``name``, one per seed: (list of RGBA images, seconds)."""
     from ..blender.render import render_stack
 
     stack = suite.load(name)
-    half = max(spp // 2, 1)
-    a, ta = render_stack(stack, "sphere-env", res=res, spp=half, engine="reference", seed=0, thickness=thickness)
-    b, tb = render_stack(stack, "sphere-env", res=res, spp=half, engine="reference", seed=1, thickness=thickness)
-    mean = 0.5 * (a + b)
-    m = sphere_mask(mean)
-    noise = float(np.sqrt(np.mean((0.5 * (a[m, :3] - b[m, :3])) ** 2)))
-    return mean, noise, ta + tb
+    images, seconds = [], 0.0
+    for seed in seeds:
+        img, t = render_stack(stack, "sphere-env", res=res, spp=chunk_spp, engine="reference", seed=seed,
+                              thickness=thickness)
+        images.append(img)
+        seconds += t
+    return images, seconds
+
+
+def chunk_noise(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
+    """Per-pixel standard deviation of one chunk, RMS over the mask, from two independent chunks:
+    RMS(a - b) / sqrt(2)."""
+    d = a[mask, :3] - b[mask, :3]
+    return float(np.sqrt(np.mean(d * d) / 2.0))
 
 
 def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_REFERENCE_DIR,
-            thickness: float | None = None, command: str = "") -> Path:
+            thickness: float | None = None, command: str = "", add: bool = False) -> Path:
+    """Render (or with ``add``, refine) the stored references. A reference is the mean of chunks of
+    ``spp / 2`` samples with seeds 0, 1, 2, ...; refining renders two more chunks and folds them in,
+    so references can be improved in steps. The noise figure is the chunk standard deviation (from
+    the newest pair of chunks) divided by sqrt(number of chunks)."""
     from ..blender.reference_scene import SHELL_THICKNESS
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     index = load_index(out_dir)
+    chunk_spp = max(spp // 2, 1)
     for name in cases or suite.names():
         t0 = time.time()
-        img, noise, seconds = render_reference(name, res, spp, thickness)
+        old = index["cases"].get(name) if add else None
+        if old is not None and old["spp"] // len(old["seeds"]) != chunk_spp:
+            raise ValueError(f"{name}: stored chunks have {old['spp'] // len(old['seeds'])} spp; refine with "
+                             f"--spp {2 * old['spp'] // len(old['seeds'])}")
+        first = len(old["seeds"]) if old else 0
+        seeds = [first, first + 1]
+        (a, b), seconds = render_chunks(name, seeds, chunk_spp, res, thickness if old is None else old["shell_thickness"])
+        new = 0.5 * (a + b)
+        if old is not None:
+            k_old = len(old["seeds"])
+            img = (read_exr(out_dir / old["file"]).astype(np.float64) * k_old + new * 2) / (k_old + 2)
+            seconds += old["render_seconds"]
+            seeds = old["seeds"] + seeds
+        else:
+            img = new
+        m = sphere_mask(img)
+        sigma = chunk_noise(a, b, m)
         write_half_exr(out_dir / f"{name}.exr", img)
         index["cases"][name] = {
-            "file": f"{name}.exr", "res": res, "spp": spp, "seeds": [0, 1],
-            "shell_thickness": thickness if thickness is not None else SHELL_THICKNESS,
-            "noise_rmse": noise, "render_seconds": round(seconds, 1),
-            "mean_radiance": [float(x) for x in img[sphere_mask(img), :3].mean(0)],
+            "file": f"{name}.exr", "res": res, "spp": chunk_spp * len(seeds), "chunk_spp": chunk_spp,
+            "seeds": seeds, "shell_thickness": thickness if thickness is not None else SHELL_THICKNESS,
+            "chunk_noise_rmse": sigma, "noise_rmse": sigma / np.sqrt(len(seeds)),
+            "render_seconds": round(seconds, 1),
+            "mean_radiance": [float(x) for x in img[m, :3].mean(0)],
         }
         index["command"] = command or f"lamella image-references --spp {spp} --res {res}"
         index["machine"] = f"{platform.machine()}, {platform.python_version()}"
         (out_dir / INDEX).write_text(json.dumps(index, indent=2, sort_keys=True) + "\n")
-        print(f"{name}: {seconds:.0f} s render, noise RMSE {noise:.4f} ({time.time() - t0:.0f} s)", flush=True)
+        print(f"{name}: {len(seeds)} chunks of {chunk_spp} spp, noise RMSE {index['cases'][name]['noise_rmse']:.4f} "
+              f"({time.time() - t0:.0f} s)", flush=True)
     return out_dir / INDEX

@@ -59,19 +59,14 @@ def absorption_densities(stack: Stack, thickness: float = SHELL_THICKNESS) -> li
 
 
 def _interface_material(bpy, text, name: str, params: dict, volume_rgb=None):
-    import cycles.osl
+    from .osl_compile import assign_script
 
     mat = bpy.data.materials.new(name)
     nt = mat.node_tree
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     node = nt.nodes.new("ShaderNodeScript")
-    node.mode = "INTERNAL"
-    node.script = text
-    errors = []
-    if not cycles.osl.update_script_node(node, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None) \
-            or "BSDF" not in node.outputs:
-        raise RuntimeError(f"reference interface shader failed to compile: {errors}")
+    assign_script(node, text, (OSL_DIR / SHADER_FILE).read_text(), SHADER_FILE)
     for key, value in params.items():
         sock = node.inputs[key]
         sock.default_value = (*value, 1.0) if isinstance(value, tuple) and len(sock.default_value) == 4 else value
@@ -99,7 +94,6 @@ def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS
     radii = interface_radii(stack, thickness)
     volumes = absorption_densities(stack, thickness)
     text = bpy.data.texts.new(SHADER_FILE)
-    text.write((OSL_DIR / SHADER_FILE).read_text())
 
     c = sc.cycles
     c.max_bounces = c.glossy_bounces = c.transmission_bounces = BOUNCES

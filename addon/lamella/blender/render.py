@@ -87,19 +87,12 @@ def assign_material(sphere, stack, engine: str):
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     if engine == "cycles-osl":
-        import cycles.osl
-
         from ..core.backends.osl import emit_osl
+        from .osl_compile import assign_script
 
         node = nt.nodes.new("ShaderNodeScript")
-        node.mode = "INTERNAL"
-        text = bpy.data.texts.new("lamella.osl")
-        text.write(emit_osl(stack))
-        node.script = text
-        errors = []
-        if not cycles.osl.update_script_node(node, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None) \
-                or "BSDF" not in node.outputs:
-            raise RuntimeError(f"OSL compile failed: {errors}")
+        name = f"lamella_{stack.name or 'stack'}.osl"
+        assign_script(node, bpy.data.texts.new(name), emit_osl(stack), name)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
