@@ -2,13 +2,21 @@
 // Inlined by the emitter (lamella/core/backends/osl.py) into every generated shader, so a
 // shader only needs the EXR files in `lut_dir`. Tables are node-centred: a coordinate c in [0, 1]
 // of an axis with n nodes sits at c * (n - 1). 3D tables are atlases of their last axis's slices
-// stacked vertically (rows = first axis, columns = second axis), as lamella.core.luts writes them.
+// stacked vertically (rows = first axis, columns = second axis), as lamella.core.luts writes them;
+// lamella_tex4 reads four slices at once from a table's RGBA-packed atlas (luts.PACKED).
 
 float lamella_tex(string file, float c0, float c1, int n0, int n1, float row0, int rows)
 {
     float s = (clamp(c1, 0.0, 1.0) * (n1 - 1) + 0.5) / n1;
     float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / rows;
     return texture(file, s, t, "wrap", "clamp", "interp", "linear", "width", 0.0);
+}
+
+color lamella_tex4(string file, float c0, float c1, int n0, int n1, float row0, int rows, output float a)
+{
+    float s = (clamp(c1, 0.0, 1.0) * (n1 - 1) + 0.5) / n1;
+    float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / rows;
+    return texture(file, s, t, "wrap", "clamp", "interp", "linear", "width", 0.0, "alpha", a);
 }
 
 float lamella_lut2(string file, float c0, float c1, int n0, int n1)

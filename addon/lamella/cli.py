@@ -107,6 +107,11 @@ def cmd_bench(a) -> int:
 
         md = luts_error.run(BENCH_DIR)
         print(md.read_text())
+    elif a.what == "osl-cost":
+        from .bench import osl_cost
+
+        md, _ = osl_cost.run()
+        print(md.read_text())
     elif a.what == "images":
         from .bench import images
 
@@ -154,15 +159,44 @@ def cmd_image_references(a) -> int:
 
 
 def cmd_demo(a) -> int:
+    """The main job: render the demo stacks (the accuracy suite and the examples) with their
+    generated OSL shaders in the canonical sphere-env scene, as EXR and PNG, plus a contact sheet;
+    ``--plots`` adds BRDF slice plots against the stochastic reference."""
+    from .blender.render import render_stack, write_exr
     from .core import suite
-    from .plots import plot_stack
+    from .core.image_metrics import display_srgb
+    from .plots import contact_sheet, plot_stack
 
     out = Path(a.out)
-    for name in (a.cases.split(",") if a.cases else suite.names()):
-        t0 = time.time()
-        p = plot_stack(suite.load(name), out / f"{name}_slices.png", spp=a.spp, title=f"{name}: {suite.descriptions()[name]}")
-        print(f"wrote {p} ({time.time() - t0:.1f} s)")
+    out.mkdir(parents=True, exist_ok=True)
+    names = a.cases.split(",") if a.cases else suite.names() + sorted(p.stem for p in suite.EXAMPLE_DIR.glob("*.json"))
+    images, captions = {}, {}
+    for name in names:
+        stack = _load_stack(name)
+        img, seconds = render_stack(stack, "sphere-env", res=a.res, spp=a.render_spp, engine="cycles-osl")
+        write_exr(out / f"{name}.exr", img)
+        _write_png(out / f"{name}.png", display_srgb(img))
+        images[name] = img
+        captions[name] = f"{len(stack.coats)} coat(s), {seconds:.1f} s"
+        print(f"wrote {out / name}.exr and .png ({seconds:.1f} s render)", flush=True)
+        if a.plots:
+            t0 = time.time()
+            desc = suite.descriptions().get(name, name)
+            p = plot_stack(stack, out / f"{name}_slices.png", spp=a.spp, title=f"{name}: {desc}")
+            print(f"wrote {p} ({time.time() - t0:.1f} s)")
+    sheet = contact_sheet(images, out / "contact_sheet.png", captions,
+                          title=f"Lamella demo stacks, cycles-osl, sphere-env, {a.res} px, {a.render_spp} spp")
+    print(f"wrote {sheet}")
     return 0
+
+
+def _write_png(path: Path, rgb01: np.ndarray) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.imsave(path, np.ascontiguousarray(rgb01, dtype=np.float64))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -194,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images"])
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)
 
@@ -227,10 +261,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--add", action="store_true", help="refine the stored references by --spp more samples")
     p.set_defaults(fn=cmd_image_references)
 
-    p = sub.add_parser("demo", help="the main job: slice plots of the demo stacks into a folder")
+    p = sub.add_parser("demo", help="the main job: render the demo stacks (EXR, PNG, contact sheet) into a folder")
     p.add_argument("--out", default="out")
-    p.add_argument("--cases")
-    p.add_argument("--spp", type=int, default=256)
+    p.add_argument("--cases", help="comma-separated stacks (default: the suite and the examples)")
+    p.add_argument("--res", type=int, default=128)
+    p.add_argument("--render-spp", type=int, default=64)
+    p.add_argument("--plots", action="store_true", help="also write BRDF slice plots against the reference")
+    p.add_argument("--spp", type=int, default=256, help="reference walkers per direction of the slice plots")
     p.set_defaults(fn=cmd_demo)
     return ap
 

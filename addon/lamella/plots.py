@@ -69,3 +69,32 @@ def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2
     fig.savefig(out, dpi=90)
     plt.close(fig)
     return out
+
+
+def contact_sheet(images: dict, out: Path, captions: dict | None = None, ncols: int = 4, title: str = "") -> Path:
+    """A grid of renders (name -> linear RGBA), tone-mapped like the image metrics
+    (``image_metrics.display_srgb``), each captioned with its name and ``captions[name]``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .core.image_metrics import display_srgb
+
+    names = list(images)
+    nrows = max(1, math.ceil(len(names) / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(2.6 * ncols, 2.9 * nrows), squeeze=False)
+    for ax in axes.ravel():
+        ax.set_axis_off()
+    for ax, name in zip(axes.ravel(), names):
+        ax.imshow(display_srgb(images[name]))
+        cap = name + (f"\n{captions[name]}" if captions and name in captions else "")
+        ax.set_title(cap, fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out

@@ -47,3 +47,19 @@ def test_off_node_error(mu, alpha):
     for eta in (1.5, 0.7, 1.02):
         exact = _integrate(mu, alpha, lambda c, o: fresnel_dielectric(ops, c, eta))
         assert abs(float(fgd_dielectric(ops, mu, alpha, eta)) - exact) < 2e-2
+
+
+def test_packed_atlas_holds_the_same_values_as_the_table():
+    """The RGBA-packed copy the OSL shaders read four slices at a time from (luts.PACKED) is the
+    same float32 data as the one-channel table numpy reads."""
+    import OpenEXR
+
+    for name, fname in luts.PACKED.items():
+        t = luts.table(name)
+        with OpenEXR.File(str(luts.DATA_DIR / fname)) as f:
+            px = np.asarray(f.channels()["RGBA"].pixels)
+        n0, n1, n2 = t.shape
+        assert px.shape == (n2 // 4 * n0, n1, 4)
+        for k in range(n2):
+            g, c = divmod(k, 4)
+            np.testing.assert_array_equal(px[g * n0:(g + 1) * n0, :, c], t[:, :, k])

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import suite
-from ..core.image_metrics import delta_e00_map, image_errors
+from ..core.image_metrics import delta_e00_map, display_srgb, image_errors
 from . import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, read_exr, sphere_mask
 
@@ -37,14 +37,6 @@ def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_R
     return figures, img, ref
 
 
-def display(img: np.ndarray) -> np.ndarray:
-    """The fixed tone map of the metrics (Reinhard per channel), sRGB-encoded for a PNG."""
-    import colour
-
-    rgb = np.maximum(np.asarray(img, dtype=np.float64)[..., :3], 0.0)
-    return np.clip(colour.cctf_encoding(rgb / (1.0 + rgb), function="sRGB"), 0.0, 1.0)
-
-
 def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures: dict) -> Path:
     """One row: each engine's render, the reference, then each engine's ΔE00 map."""
     import matplotlib
@@ -53,9 +45,9 @@ def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures
     import matplotlib.pyplot as plt
 
     mask = sphere_mask(ref)
-    panels = [(f"{e} ({figures[e]['seconds']:.1f} s)", display(im)) for e, im in images.items()]
+    panels = [(f"{e} ({figures[e]['seconds']:.1f} s)", display_srgb(im)) for e, im in images.items()]
     panels.insert(1, (f"reference ({load_index(IMAGE_REFERENCE_DIR)['cases'].get(name, {}).get('spp', '?')} spp)",
-                      display(ref)))
+                      display_srgb(ref)))
     maps = [(f"ΔE00 {e}: mean {figures[e]['delta_e00']:.2f}", np.where(mask, delta_e00_map(im, ref), np.nan))
             for e, im in images.items()]
     fig, axes = plt.subplots(1, len(panels) + len(maps), figsize=(3.0 * (len(panels) + len(maps)), 3.4))

@@ -54,6 +54,15 @@ def tone_map_lab(img: np.ndarray) -> np.ndarray:
     return colour.XYZ_to_Lab(xyz, colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
 
 
+def display_srgb(img: np.ndarray) -> np.ndarray:
+    """The fixed tone map (Reinhard per channel), sRGB-encoded in [0, 1] for PNGs and contact
+    sheets: what the ΔE00 figures judge is what the pictures show."""
+    import colour
+
+    rgb = np.maximum(_rgb(img), 0.0)
+    return np.clip(colour.cctf_encoding(rgb / (1.0 + rgb), function="sRGB"), 0.0, 1.0)
+
+
 def delta_e00_map(img: np.ndarray, ref: np.ndarray) -> np.ndarray:
     import colour
 

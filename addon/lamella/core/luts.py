@@ -79,6 +79,12 @@ SPECS = {
     "tir": TableSpec("tir", "tir.exr", "Y", (N_TIR_U, N_ALPHA, N_TIR_ETA)),
 }
 
+# 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:
+# a quadrature that reads every slice at the same (c0, c1) then needs a quarter of the texture
+# reads (lamella.core.backends.osl). Same float32 values as the one-channel atlas.
+PACKED = {"fresnel_hat_delta": "fresnel_hat_delta_rgba.exr"}
+PACKED_CHANNELS = ("R", "G", "B", "A")
+
 _cache: dict[str, np.ndarray] = {}
 
 
@@ -114,6 +120,30 @@ def _from_atlas(px: np.ndarray, shape) -> np.ndarray:
     return np.ascontiguousarray(px.reshape(n2, n0, n1).transpose(1, 2, 0))
 
 
+def packed_atlas(a: np.ndarray) -> dict[str, np.ndarray]:
+    """RGBA atlas of a 3D table (n0, n1, n2), n2 a multiple of 4: group g of slices
+    4g..4g+3 occupies rows g*n0 .. (g+1)*n0 - 1, slice 4g+c in channel c."""
+    n0, n1, n2 = a.shape
+    if n2 % 4:
+        raise ValueError(f"cannot pack {n2} slices by four")
+    g = a.reshape(n0, n1, n2 // 4, 4).transpose(2, 0, 1, 3).reshape(n2 // 4 * n0, n1, 4)
+    return {ch: np.ascontiguousarray(g[..., c], dtype=np.float32) for c, ch in enumerate(PACKED_CHANNELS)}
+
+
+def write_packed(out_dir: Path = DATA_DIR, tables: dict[str, np.ndarray] | None = None) -> list[Path]:
+    import OpenEXR
+
+    written = []
+    for name, fname in PACKED.items():
+        arr = tables[name] if tables and name in tables else table(name)
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  "lamella_shape": ",".join(map(str, arr.shape)), "lamella_packing": "rgba slices"}
+        with OpenEXR.File(header, packed_atlas(arr)) as f:
+            f.write(str(out_dir / fname))
+        written.append(out_dir / fname)
+    return written
+
+
 def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
     import OpenEXR
 
@@ -132,6 +162,7 @@ def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> lis
             f.write(str(out_dir / fname))
         written.append(out_dir / fname)
     _cache.clear()
+    written += write_packed(out_dir, {k: v.astype(np.float32) for k, v in tables.items()})
     return written
 
 

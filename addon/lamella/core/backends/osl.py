@@ -48,6 +48,7 @@ class _Printer:
         self.t = tracer
         self.names: dict[int, str] = {}
         self.lines: list[str] = []
+        self._packed: dict[tuple, str] = {}
 
     def ref(self, a) -> str:
         if isinstance(a, Expr):
@@ -70,17 +71,46 @@ class _Printer:
             elif e.op == "select":
                 rhs = f"{self.ref(a[0])} ? {self.ref(a[1])} : {self.ref(a[2])}"
             elif e.op == "lut":
-                rhs = self._lut(a[0], [self.ref(c) for c in a[1:]])
+                rhs = self._packed_read(a) or self._lut(a[0], [self.ref(c) for c in a[1:]], a[1:])
             else:
                 rhs = f"{_FUN[e.op]}({', '.join(self.ref(x) for x in a)})"
             self.lines.append(f"    {'int' if e.op in _CMP else 'float'} {name} = {rhs};")
 
+    def _packed_read(self, a) -> str | None:
+        """A read of one slice of a table that has an RGBA-packed atlas (luts.PACKED), at a slice
+        index that is a literal: the four slices of its texel are read once per (c0, c1) and
+        shared by every node that needs one of them."""
+        name, c0, c1, c2 = a[0], a[1], a[2], a[3] if len(a) > 3 else None
+        if name not in luts.PACKED or not isinstance(c2, float):
+            return None
+        n0, n1, n2 = luts.SPECS[name].shape
+        k = c2 * (n2 - 1)
+        if abs(k - round(k)) > 1e-9 or not 0 <= round(k) < n2:
+            return None
+        group, channel = divmod(round(k), 4)
+        key = (name, self.ref(c0), self.ref(c1), group)
+        var = self._packed.get(key)
+        if var is None:
+            var = self._packed[key] = f"q{len(self._packed)}"
+            f = f'concat(lut_dir, "/{luts.PACKED[name]}")'
+            self.lines.append(f"    float {var}_a;")
+            self.lines.append(f"    color {var} = lamella_tex4({f}, {key[1]}, {key[2]}, {n0}, {n1}, "
+                              f"{group * n0}.0, {n2 // 4 * n0}, {var}_a);")
+        return f"{var}_a" if channel == 3 else f"{var}[{channel}]"
+
     @staticmethod
-    def _lut(name: str, coords: list[str]) -> str:
+    def _lut(name: str, coords: list[str], raw=()) -> str:
         spec = luts.SPECS[name]
         f = f'concat(lut_dir, "/{spec.file}")'
         if len(spec.shape) == 2:
             return f"lamella_lut2({f}, {coords[0]}, {coords[1]}, {spec.shape[0]}, {spec.shape[1]})"
+        n0, n1, n2 = spec.shape
+        if len(raw) == 3 and isinstance(raw[2], float) and 0.0 <= raw[2] <= 1.0:
+            k = raw[2] * (n2 - 1)
+            if abs(k - round(k)) < 1e-9:
+                # the last coordinate is a literal on a table node (the Fresnel quadrature's
+                # slices): one texture read of that slice instead of interpolating two
+                return f"lamella_tex({f}, {coords[0]}, {coords[1]}, {n0}, {n1}, {round(k) * n0}.0, {n0 * n2})"
         return (f"lamella_lut3({f}, {coords[0]}, {coords[1]}, {coords[2]}, "
                 f"{spec.shape[0]}, {spec.shape[1]}, {spec.shape[2]})")
 
