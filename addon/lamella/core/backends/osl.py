@@ -115,6 +115,18 @@ class _Printer:
                 f"{spec.shape[0]}, {spec.shape[1]}, {spec.shape[2]})")
 
 
+def _reflection_closure(ax: str, ay: str, c: str, s: str) -> str:
+    """A GD-normalised GGX reflection lobe (its weight is its energy) on the lobe's own axes: the
+    shading tangent turned by the lobe rotation (cos c, sin s) about the normal."""
+    return f'microfacet("ggx", Normal, normalize({c} * Tn + {s} * Bn), {ax}, {ay}, 1.0, 0)'
+
+
+# Lobe kind (models.Lobe.kind) -> the OSL closure that renders it. New model code adds a kind here
+# (refraction through a dielectric base, diffuse(Normal) for a diffuse base); nothing else in the
+# emitter depends on the model.
+CLOSURE_KINDS = {"reflection": _reflection_closure}
+
+
 def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None) -> str:
     """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``."""
     stack = Stack.coerce(stack)
@@ -124,6 +136,8 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
     lobes = run_model(t, stack, wi, v)
     outputs, closures = [], []
     for lobe in lobes:
+        if lobe.kind not in CLOSURE_KINDS:
+            raise NotImplementedError(f"lobe kind {lobe.kind!r} has no OSL closure yet (have: {', '.join(CLOSURE_KINDS)})")
         norm = 1.0 / t.max(gd(t, wi[2], rms_alpha(t, lobe.alpha_x, lobe.alpha_y)), 1e-6)
         w = [c * norm for c in lobe.weight]
         closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
@@ -149,13 +163,12 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
         *p.lines,
         "    BSDF = 0;",
     ]
-    for k, (w, ax, ay, c, s) in enumerate(closures):
+    for k, ((w, ax, ay, c, s), lobe) in enumerate(zip(closures, lobes)):
         r, g, b = (p.ref(x) for x in w)
         body += [
             f"    // lobe {k}: {'coat ' + str(k) if k < len(stack.coats) else 'base'} and everything it sends back up",
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
-            f"        BSDF += color({r}, {g}, {b}) * microfacet(\"ggx\", Normal, "
-            f"normalize({p.ref(c)} * Tn + {p.ref(s)} * Bn), {p.ref(ax)}, {p.ref(ay)}, 1.0, 0);",
+            f"        BSDF += color({r}, {g}, {b}) * {CLOSURE_KINDS[lobe.kind](*(p.ref(x) for x in (ax, ay, c, s)))};",
         ]
     header = (OSL_DIR / LUT_HEADER).read_text()
     desc = stack.to_json(indent=None)
