@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test bench-accuracy references luts clean
+.PHONY: setup demo test bench-accuracy bench-images references image-references luts clean
 
 setup: $(STAMP)
 
@@ -29,6 +29,17 @@ bench-accuracy: setup
 references: setup
 	$(VENV)/bin/lamella references --cases frosted_metal,three_coats,rough_coat_over_mirror --spp 8192
 	$(VENV)/bin/lamella references --cases gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,tinted_varnish,opposing_anisotropy --spp 32768
+
+# The stored image references (tests/references/images): every suite stack as nested interface
+# spheres, path traced at 128 px; 2048 spp per pass (about 40 min on 2 cores), refined by a
+# second pass. `make bench-images` then re-measures bench/images.md against them.
+image-references: setup
+	$(VENV)/bin/lamella image-references --spp 2048
+	$(VENV)/bin/lamella image-references --spp 2048 --add
+
+bench-images: setup
+	$(VENV)/bin/lamella bench images
+	$(VENV)/bin/lamella bench osl-cost
 
 luts: setup
 	$(VENV)/bin/lamella luts

@@ -37,7 +37,7 @@ SHADER_FILE = "lamella_reference_interface.osl"
 def interface_radii(stack: Stack, thickness: float = SHELL_THICKNESS) -> list[float]:
     """Radii of the interfaces, outermost first: one per coat plus the base."""
     n = len(stack.coats)
-    if not 0.0 < thickness * n < 0.5:
+    if not (thickness > 0.0 and thickness * n < 0.5):
         raise ValueError(f"shell thickness {thickness} x {n} coats must stay inside half the sphere's radius")
     return [1.0 - i * thickness for i in range(n + 1)]
 
