@@ -70,8 +70,10 @@ def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures
 
 def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = IMAGE_REFERENCE_DIR,
         progress=print) -> tuple[Path, Path]:
+    from ..plots import contact_sheet
+
     index = load_index(ref_dir)
-    rows = []
+    rows, sheet, captions = [], {}, {}
     for name in cases or suite.names():
         if name not in index["cases"]:
             raise FileNotFoundError(f"no stored image reference for {name}: run `lamella image-references --cases {name}`")
@@ -82,6 +84,11 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
             rows.append(f)
             progress(f"{name} {engine}: {f['seconds']:.1f} s, RMSE {f['rmse']:.4f}, ΔE00 {f['delta_e00']:.2f}")
         comparison_png(Path(out_dir) / "images" / f"{name}.png", name, images, ref, figures)
+        sheet[f"{name}: ours"], sheet[f"{name}: reference"] = images["cycles-osl"], ref
+        captions[f"{name}: ours"] = f"{spp} spp, {figures['cycles-osl']['seconds']:.1f} s, ΔE00 {figures['cycles-osl']['delta_e00']:.2f}"
+        captions[f"{name}: reference"] = f"{index['cases'][name]['spp']} spp nested spheres"
+    contact_sheet(sheet, Path(out_dir) / "images" / "contact_sheet.png", captions, ncols=4,
+                  title="Generated OSL shader (ours) next to the brute-force reference, canonical sphere-env")
     jpath = Path(out_dir) / "images.json"
     jpath.write_text(json.dumps({"spp": spp, "res": RES, "rows": rows}, indent=1) + "\n")
     mpath = Path(out_dir) / "images.md"

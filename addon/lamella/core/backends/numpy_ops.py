@@ -24,6 +24,9 @@ class NumpyOps:
     def __init__(self, dtype=np.float64):
         self.dtype = np.dtype(dtype)
 
+    def set_scope(self, name: str) -> None:
+        """Labels only matter to the tracer (readable generated code); nothing to do here."""
+
     # ------------------------------------------------------------------ values
     def const(self, x):
         """A literal of the model (or a structural constant)."""

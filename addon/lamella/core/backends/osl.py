@@ -55,7 +55,10 @@ class _Printer:
             return self.names[id(a)]
         return _literal(a)
 
-    def emit(self, outputs) -> None:
+    def emit(self, outputs, sections: dict[str, str] | None = None) -> None:
+        """One statement per live node, each temporary named after the part of the model that
+        made it (``coat0_12``, ``base_40``), with a comment line where that part begins."""
+        scope = None
         for n, e in enumerate(self.t.live_nodes(outputs)):
             if e.op == "param":
                 self.names[id(e)] = _identifier(e.args[0])
@@ -63,7 +66,10 @@ class _Printer:
             if e.op == "input":
                 self.names[id(e)] = e.args[0]
                 continue
-            name = f"t{n}"
+            if e.scope != scope:
+                scope = e.scope
+                self.lines.append(f"    // ---- {(sections or {}).get(scope, scope)}")
+            name = f"{_identifier(scope)}_{n}"
             self.names[id(e)] = name
             a = e.args
             if e.op in _BIN:
@@ -134,6 +140,7 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
     lobes = run_model(t, stack, wi, v)
+    t.set_scope("closures")
     outputs, closures = [], []
     for lobe in lobes:
         if lobe.kind not in CLOSURE_KINDS:
@@ -143,7 +150,13 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
         closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
         outputs.extend([*w, lobe.alpha_x, lobe.alpha_y, closures[-1][3], closures[-1][4]])
     p = _Printer(t)
-    p.emit(outputs)
+    sections = {"setup": "shading frame", "lobes": "lobes (energies, roughness, axes)",
+                "closures": "closure weights: energy / GD (the lobe normaliser)",
+                "base": f"base: {stack.base.type} and the adding of the stack above it"}
+    for i, c in enumerate(stack.coats):
+        sections[f"coat{i}"] = (f"coat {i}: interface from above, refraction into it"
+                                + (", absorption" if c.has_absorption else ""))
+    p.emit(outputs, sections)
 
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
     params = [f"    float {_identifier(k)} = {_literal(float(t.defaults[k]))}," for k in sorted(t.params)]

@@ -22,10 +22,11 @@ _BINARY = {
 class Expr:
     """A node of the traced graph. Build only through ``Tracer``; never branch on one."""
 
-    __slots__ = ("tracer", "op", "args", "key", "__weakref__")
+    __slots__ = ("tracer", "op", "args", "key", "scope", "__weakref__")
 
     def __init__(self, tracer: "Tracer", op: str, args: tuple, key):
         self.tracer, self.op, self.args, self.key = tracer, op, args, key
+        self.scope = tracer.scope
 
     def _bin(self, op, other, swap=False):
         a, b = (other, self) if swap else (self, other)
@@ -71,6 +72,12 @@ class Tracer:
         self.defaults: dict[str, Any] = {}
         self.inputs: dict[str, Expr] = {}
         self._cache: dict[tuple, Expr] = {}
+        self.scope = "setup"  # the part of the model that creates the next nodes (for readable output)
+
+    def set_scope(self, name: str) -> None:
+        """Label the nodes created from now on (e.g. "coat0", "base"): emitters name temporaries
+        and section the generated code by it. A node shared by several parts keeps its first label."""
+        self.scope = name
 
     # ---------------------------------------------------------------- graph building
     def _key(self, a):

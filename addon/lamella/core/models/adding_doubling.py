@@ -121,6 +121,7 @@ def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:
     lobes: list[Lobe] = []
     interfaces = [("coat", c) for c in coats] + [("base", base)]
     for index, (kind, p) in enumerate(interfaces):
+        ops.set_scope(f"coat{index}" if kind == "coat" else "base")
         cos_r, sin_r = ops.cos(p["rotation"]), ops.sin(p["rotation"])
         ax, ay = p["ax"], p["ay"]
         fetch_mu, fetch_alpha = Spread.fgd_fetch(ops, sx, sy, cti, ax, ay, cos_r, sin_r)
@@ -214,4 +215,5 @@ def adding_doubling(ops, stack: Stack, wi, variant: Variant) -> list[Lobe]:
             path = p["thickness"] / ops.max(cti, COS_FLOOR)
             t = p["sigma_a"].map(lambda s: ops.exp(-s * path))
             T0i, Ti0, Ri0 = T0i * t, Ti0 * t, Ri0 * t * t
+    ops.set_scope("lobes")
     return lobes

@@ -53,6 +53,8 @@ class ScalarVariance:
 
 
 def rms_alpha(ops, ax, ay):
+    if ax is ay:  # an isotropic layer (one roughness input): nothing to average
+        return ax
     return ops.sqrt(0.5 * (ax * ax + ay * ay))
 
 
