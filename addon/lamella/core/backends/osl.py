@@ -124,7 +124,8 @@ class _Printer:
 def _reflection_closure(ax: str, ay: str, c: str, s: str) -> str:
     """A GD-normalised GGX reflection lobe (its weight is its energy) on the lobe's own axes: the
     shading tangent turned by the lobe rotation (cos c, sin s) about the normal."""
-    return f'microfacet("ggx", Normal, normalize({c} * Tn + {s} * Bn), {ax}, {ay}, 1.0, 0)'
+    tangent = "Tn" if (c, s) == ("1.0", "0.0") else f"normalize({c} * Tn + {s} * Bn)"
+    return f'microfacet("ggx", Normal, {tangent}, {ax}, {ay}, 1.0, 0)'
 
 
 # Lobe kind (models.Lobe.kind) -> the OSL closure that renders it. New model code adds a kind here
@@ -150,7 +151,7 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
         closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
         outputs.extend([*w, lobe.alpha_x, lobe.alpha_y, closures[-1][3], closures[-1][4]])
     p = _Printer(t)
-    sections = {"setup": "shading frame", "lobes": "lobes (energies, roughness, axes)",
+    sections = {"setup": "incident direction", "lobes": "lobes (energies, roughness, axes)",
                 "closures": "closure weights: energy / GD (the lobe normaliser)",
                 "base": f"base: {stack.base.type} and the adding of the stack above it"}
     for i, c in enumerate(stack.coats):
