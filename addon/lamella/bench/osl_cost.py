@@ -53,7 +53,7 @@ def static_cost(stack: Stack) -> dict:
     return {
         "lines": len(src.splitlines()),
         "statements": body.count(";"),
-        "texture_reads": len(re.findall(r"lamella_tex\(", body)) + 2 * len(re.findall(r"lamella_lut3\(", body))
+        "texture_reads": len(re.findall(r"lamella_tex4?\(", body)) + 2 * len(re.findall(r"lamella_lut3\(", body))
         + len(re.findall(r"lamella_lut2\(", body)),
         "inputs": len(re.findall(r"^    (?:float|vector|normal|string|color) \w+ = ", body[:body.index("{")], re.M)),
         "closures": body.count("microfacet("),
