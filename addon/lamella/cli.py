@@ -166,7 +166,8 @@ def cmd_demo(a) -> int:
     """The main job: render the demo stacks (the accuracy suite and the examples) with their
     generated OSL shaders in the canonical sphere-env scene, as EXR and PNG, plus a contact sheet;
     ``--plots`` adds BRDF slice plots against the stochastic reference."""
-    from .blender.render import render_stack, write_exr
+    from .blender.render import render_stack
+    from .core.exr import write_rgba
     from .core import suite
     from .core.image_metrics import display_srgb
     from .plots import contact_sheet, plot_stack
@@ -178,7 +179,7 @@ def cmd_demo(a) -> int:
     for name in names:
         stack = _load_stack(name)
         img, seconds = render_stack(stack, "sphere-env", res=a.res, spp=a.render_spp, engine="cycles-osl")
-        write_exr(out / f"{name}.exr", img)
+        write_rgba(out / f"{name}.exr", img)
         _write_png(out / f"{name}.png", display_srgb(img))
         images[name] = img
         captions[name] = f"{len(stack.coats)} coat(s), {seconds:.1f} s"

@@ -63,10 +63,17 @@ def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2
                 ax.set_ylabel("f · cos θo (luminance)")
     axes[0, 0].legend(fontsize=7, loc="lower left")
     fig.suptitle(title or stack.name or "stack", fontsize=11)
+    return save_figure(fig, out, dpi=90)
+
+
+def save_figure(fig, out: Path, dpi: int = 90) -> Path:
+    """Lay out, write (creating the folder) and close a matplotlib figure."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=90)
+    fig.savefig(out, dpi=dpi)
     plt.close(fig)
     return out
 
@@ -92,9 +99,4 @@ def contact_sheet(images: dict, out: Path, captions: dict | None = None, ncols: 
         ax.set_title(cap, fontsize=7)
     if title:
         fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=100)

@@ -44,7 +44,8 @@ def test_osl_render_does_not_drift_from_its_reference(case, tmp_path):
     assert RECORDED["spp"] == images.SPP
     figures, img, ref = images.compare_case(case, "cycles-osl", RECORDED["spp"])
     assert np.isfinite(img).all() and (img >= 0).all()
-    images.comparison_png(tmp_path / f"{case}.png", case, {"cycles-osl": img}, ref, {"cycles-osl": figures})
+    images.comparison_png(tmp_path / f"{case}.png", case, {"cycles-osl": img}, ref, {"cycles-osl": figures},
+                          load_index()["cases"][case]["spp"])
     old = recorded(case)
     print(case, {k: (round(figures[k], 5), round(old[k], 5)) for k in MARGIN})
     for key, (rel, abs_) in MARGIN.items():

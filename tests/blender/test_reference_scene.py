@@ -10,7 +10,6 @@ channel except tinted_varnish's blue at 55-65 deg (1.3 %, its smallest albedo, 0
 A wrong relative IOR, a missed back-face inversion or a volume density off by the shell
 thickness moves these by 5-50 %.
 """
-import math
 
 import numpy as np
 import pytest

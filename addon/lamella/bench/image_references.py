@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import suite
+from ..core.exr import read_rgba, write_rgba
 from . import REPO
 
 IMAGE_REFERENCE_DIR = REPO / "tests" / "references" / "images"
@@ -28,23 +29,6 @@ def sphere_mask(rgba: np.ndarray) -> np.ndarray:
     """Pixels fully covered by the sphere (alpha of the reference = 1): image metrics are taken
     there, so the background (the same HDRI in every render) does not dilute them."""
     return rgba[..., 3] > 0.999
-
-
-def read_exr(path) -> np.ndarray:
-    import OpenEXR
-
-    with OpenEXR.File(str(path)) as f:
-        return np.array(f.channels()["RGBA"].pixels, dtype=np.float32)
-
-
-def write_half_exr(path, rgba: np.ndarray) -> None:
-    """RGBA half-float EXR with ZIP compression: the stored format of the references (half keeps
-    3 significant digits, well below their noise floor)."""
-    import OpenEXR
-
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, {"RGBA": np.ascontiguousarray(rgba, dtype=np.float16)}) as f:
-        f.write(str(path))
 
 
 def load_index(out_dir: Path = IMAGE_REFERENCE_DIR) -> dict:
@@ -93,21 +77,22 @@ def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_RE
                              f"--spp {2 * old['spp'] // len(old['seeds'])}")
         first = len(old["seeds"]) if old else 0
         seeds = [first, first + 1]
-        (a, b), seconds = render_chunks(name, seeds, chunk_spp, res, thickness if old is None else old["shell_thickness"])
+        used_thickness = old["shell_thickness"] if old is not None else (thickness or SHELL_THICKNESS)
+        (a, b), seconds = render_chunks(name, seeds, chunk_spp, res, used_thickness)
         new = 0.5 * (a + b)
         if old is not None:
             k_old = len(old["seeds"])
-            img = (read_exr(out_dir / old["file"]).astype(np.float64) * k_old + new * 2) / (k_old + 2)
+            img = (read_rgba(out_dir / old["file"]).astype(np.float64) * k_old + new * 2) / (k_old + 2)
             seconds += old["render_seconds"]
             seeds = old["seeds"] + seeds
         else:
             img = new
         m = sphere_mask(img)
         sigma = chunk_noise(a, b, m)
-        write_half_exr(out_dir / f"{name}.exr", img)
+        write_rgba(out_dir / f"{name}.exr", img, half=True)
         index["cases"][name] = {
             "file": f"{name}.exr", "res": res, "spp": chunk_spp * len(seeds), "chunk_spp": chunk_spp,
-            "seeds": seeds, "shell_thickness": thickness if thickness is not None else SHELL_THICKNESS,
+            "seeds": seeds, "shell_thickness": used_thickness,
             "chunk_noise_rmse": sigma, "noise_rmse": sigma / np.sqrt(len(seeds)),
             "render_seconds": round(seconds, 1),
             "mean_radiance": [float(x) for x in img[m, :3].mean(0)],

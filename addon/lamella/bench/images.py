@@ -14,9 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from ..core import suite
+from ..core.exr import read_rgba
 from ..core.image_metrics import delta_e00_map, display_srgb, image_errors
+from ..plots import save_figure
 from . import BENCH_DIR
-from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, read_exr, sphere_mask
+from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
 
 SPP = 64
 ENGINES = ("cycles-osl", "principled")
@@ -30,14 +32,14 @@ def render_case(name: str, engine: str, spp: int = SPP, res: int = RES):
 
 def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR):
     """(figures dict, rendered image, reference image) for one case and engine."""
-    ref = read_exr(Path(ref_dir) / f"{name}.exr")
+    ref = read_rgba(Path(ref_dir) / f"{name}.exr")
     img, seconds = render_case(name, engine, spp, ref.shape[0])
     figures = image_errors(img, ref, sphere_mask(ref))
     figures.update({"case": name, "engine": engine, "spp": spp, "seconds": round(seconds, 2)})
     return figures, img, ref
 
 
-def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures: dict) -> Path:
+def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures: dict, ref_spp=None) -> Path:
     """One row: each engine's render, the reference, then each engine's ΔE00 map."""
     import matplotlib
 
@@ -46,8 +48,7 @@ def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures
 
     mask = sphere_mask(ref)
     panels = [(f"{e} ({figures[e]['seconds']:.1f} s)", display_srgb(im)) for e, im in images.items()]
-    panels.insert(1, (f"reference ({load_index(IMAGE_REFERENCE_DIR)['cases'].get(name, {}).get('spp', '?')} spp)",
-                      display_srgb(ref)))
+    panels.insert(1, (f"reference ({ref_spp or '?'} spp)", display_srgb(ref)))
     maps = [(f"ΔE00 {e}: mean {figures[e]['delta_e00']:.2f}", np.where(mask, delta_e00_map(im, ref), np.nan))
             for e, im in images.items()]
     fig, axes = plt.subplots(1, len(panels) + len(maps), figsize=(3.0 * (len(panels) + len(maps)), 3.4))
@@ -61,11 +62,7 @@ def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures
     for ax in axes:
         ax.set_axis_off()
     fig.suptitle(f"{name}: {suite.descriptions()[name]}", fontsize=9)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=90)
 
 
 def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = IMAGE_REFERENCE_DIR,
@@ -83,7 +80,8 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
             figures[engine], images[engine] = f, img
             rows.append(f)
             progress(f"{name} {engine}: {f['seconds']:.1f} s, RMSE {f['rmse']:.4f}, ΔE00 {f['delta_e00']:.2f}")
-        comparison_png(Path(out_dir) / "images" / f"{name}.png", name, images, ref, figures)
+        comparison_png(Path(out_dir) / "images" / f"{name}.png", name, images, ref, figures,
+                       index["cases"][name]["spp"])
         sheet[f"{name}: ours"], sheet[f"{name}: reference"] = images["cycles-osl"], ref
         captions[f"{name}: ours"] = f"{spp} spp, {figures['cycles-osl']['seconds']:.1f} s, ΔE00 {figures['cycles-osl']['delta_e00']:.2f}"
         captions[f"{name}: reference"] = f"{index['cases'][name]['spp']} spp nested spheres"

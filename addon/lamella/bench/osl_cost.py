@@ -101,7 +101,8 @@ def run(out_dir: Path = BENCH_DIR, repeats: int = REPEATS, progress=print) -> tu
         row["median_seconds"] = float(np.median(row["seconds"]))
         row["median_principled_seconds"] = float(np.median(row["principled_seconds"]))
         row["ratio_to_principled"] = row["median_seconds"] / row["median_principled_seconds"]
-        row["ratio_to_one_coat"] = row["median_seconds"] / rows[0]["median_seconds"] if rows[0].get("median_seconds") else 1.0
+    for row in rows:
+        row["ratio_to_one_coat"] = row["median_seconds"] / rows[0]["median_seconds"]
     out_dir.mkdir(parents=True, exist_ok=True)
     jpath = out_dir / "osl_cost.json"
     jpath.write_text(json.dumps({"res": RES, "spp": SPP, "repeats": repeats, "rows": rows}, indent=1) + "\n")

@@ -24,8 +24,6 @@ assumes. ``lamella image-references --thickness`` re-renders with another d to c
 """
 from __future__ import annotations
 
-import math
-
 from ..core.backends.osl import OSL_DIR
 from ..core.stack import Conductor, Stack
 
@@ -128,12 +126,3 @@ def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS
         obj.data.materials.append(mat)
     return radii
 
-
-def shell_lateral_spread(stack: Stack, thickness: float = SHELL_THICKNESS) -> float:
-    """A bound on how far (scene units) light walks sideways per round trip in the stack at 60 deg
-    incidence: 2 d tan(theta_t) per coat. Compare with the pixel size 2.2 / res."""
-    s = 0.0
-    for c in stack.coats:
-        sin_t = math.sin(math.radians(60.0)) / max(c.ior, 1.0)
-        s += 2.0 * thickness * sin_t / math.sqrt(1.0 - sin_t * sin_t)
-    return s

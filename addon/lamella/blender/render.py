@@ -6,7 +6,6 @@ import math
 import time
 from pathlib import Path
 
-import numpy as np
 
 ENGINES = ("cycles-osl", "principled", "reference")
 SCENES = ("sphere-env", "sphere-sun", "white-furnace")
@@ -134,8 +133,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
     the stack as nested interface spheres (reference_scene) of shell ``thickness``."""
     import tempfile
 
-    import OpenEXR
-
+    from ..core.exr import read_rgba, write_rgba
     from ..core.stack import Stack
 
     bpy = _bpy()
@@ -156,16 +154,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
         t0 = time.time()
         bpy.ops.render.render(write_still=True)
         seconds = time.time() - t0
-        with OpenEXR.File(str(Path(tmp) / "render.exr")) as f:
-            px = np.array(f.channels()["RGBA"].pixels, dtype=np.float32)
+        px = read_rgba(Path(tmp) / "render.exr")
     if out is not None:
-        write_exr(out, px)
+        write_rgba(out, px)
     return px, seconds
-
-
-def write_exr(path, rgba: np.ndarray) -> None:
-    import OpenEXR
-
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, {"RGBA": np.ascontiguousarray(rgba, dtype=np.float32)}) as f:
-        f.write(str(path))
