@@ -44,20 +44,20 @@ def cmd_lobes(a) -> int:
     wi = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
     print(f"stack {stack.name or a.stack}: {len(stack.coats)} coat(s) over a {stack.base.type}; "
           f"wi = {a.wi:g} deg (azimuth {a.phi:g} deg)")
-    for m in a.model or ["belcour2018", "weier2020", "yamaguchi2019"]:
-        print(f"\n{m}")
+    for m in a.model or list(api.MODELS):
         try:
             lb = api.lobes(stack, wi, m)
         except UnsupportedStack as e:
-            print(f"  unsupported: {e}")
+            print(f"\n{m}\n  unsupported: {e}")
             continue
-        print(f"  {'lobe':>4} {'kind':<10} {'weight R':>9} {'G':>8} {'B':>8} {'alpha_x':>8} {'alpha_y':>8} {'rot(deg)':>9}")
+        print(f"\n{m}" + (f" (picked {lb.model} for this stack)" if m == "auto" else ""))
+        print(f"  {'lobe':>4} {'kind':<12} {'weight R':>9} {'G':>8} {'B':>8} {'alpha_x':>8} {'alpha_y':>8} {'rot(deg)':>9}")
         for k in range(lb.weight.shape[1]):
             w = lb.weight[0, k]
-            print(f"  {k:>4} {lb.kinds[k]:<10} {w[0]:9.5f} {w[1]:8.5f} {w[2]:8.5f} "
+            print(f"  {k:>4} {lb.kinds[k]:<12} {w[0]:9.5f} {w[1]:8.5f} {w[2]:8.5f} "
                   f"{lb.alpha_x[0, k]:8.5f} {lb.alpha_y[0, k]:8.5f} {math.degrees(lb.rotation[0, k]):9.2f}")
         tot = lb.weight[0].sum(0)
-        print(f"  {'sum':>4} {'':<10} {tot[0]:9.5f} {tot[1]:8.5f} {tot[2]:8.5f}")
+        print(f"  {'sum':>4} {'':<12} {tot[0]:9.5f} {tot[1]:8.5f} {tot[2]:8.5f}")
     return 0
 
 

@@ -9,16 +9,21 @@ from lamella.cli import main
 def test_lobes_prints_every_model(capsys):
     assert main(["lobes", "rotated_60", "--wi", "30"]) == 0
     out = capsys.readouterr().out
-    for m in ("belcour2018", "weier2020", "yamaguchi2019"):
+    for m in ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6"):
         assert m in out
-    assert out.count("reflection") == 6  # two lobes per model
+    assert "auto (picked yamaguchi2019 for this stack)" in out
+    assert out.count("reflection") == 12  # two lobes per model, six models with auto
 
 
 def test_lobes_reports_unsupported_stacks(tmp_path, capsys):
-    p = tmp_path / "diffuse.json"
-    p.write_text(json.dumps({"layers": [{"ior": 1.5}], "base": {"type": "diffuse"}}))
+    """A scattering coat: the adding-doubling models say why they cannot, auto picks tm6."""
+    p = tmp_path / "fog.json"
+    p.write_text(json.dumps({"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [0.5] * 3}],
+                             "base": {"type": "diffuse"}}))
     assert main(["lobes", str(p), "--wi", "0"]) == 0
-    assert "unsupported" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "unsupported: belcour2018: coat 0 scatters" in out
+    assert "auto (picked tm6 for this stack)" in out
 
 
 def test_bad_stack_names_layer_and_field(tmp_path):

@@ -219,14 +219,11 @@ def test_yamaguchi_rotates_with_the_interface():
 
 
 def test_unsupported_parts_raise_with_a_reason():
-    for d, word in [
-        (stack(base={"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}), "diffuse"),
-        (stack(base={"type": "dielectric", "ior": 1.5}), "dielectric"),
-        ({"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [1, 1, 1]}], "base": GOLD}, "coat 0 scatters"),
-    ]:
-        for m in MODELS:
-            with pytest.raises(lc.UnsupportedStack, match=word):
-                lc.lobes(d, directions([0.0]), m)
+    """The adding-doubling variants have no scattering media; they say which coat scatters."""
+    d = {"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [1, 1, 1]}], "base": GOLD}
+    for m in MODELS:
+        with pytest.raises(lc.UnsupportedStack, match="coat 0 scatters"):
+            lc.lobes(d, directions([0.0]), m)
 
 
 def test_model_names():

@@ -36,6 +36,13 @@ def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, s
             amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 1)
             data.update({f"wo_{i}": wo, f"weight_{i}": weight, f"mean_{i}": mean, f"stderr_{i}": err,
                          f"albedo_{i}": np.asarray(amean).reshape(3), f"albedo_stderr_{i}": np.asarray(aerr).reshape(3)})
+            if stack.base.type == "dielectric":  # light crossing the base: the transmitted side
+                wo, weight = suite.wo_grid_transmitted(wi)
+                mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i + 2)
+                amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 3, side="transmitted")
+                data.update({f"wo_t_{i}": wo, f"weight_t_{i}": weight, f"mean_t_{i}": mean, f"stderr_t_{i}": err,
+                             f"albedo_t_{i}": np.asarray(amean).reshape(3),
+                             f"albedo_t_stderr_{i}": np.asarray(aerr).reshape(3)})
         meta = {"case": name, "stack": stack.to_dict(), "spp": spp, "albedo_spp": albedo_spp, "seed": seed,
                 "command": command or f"lamella references --cases {name} --spp {spp}",
                 "seconds": round(time.time() - t0, 1), "machine": platform.machine()}

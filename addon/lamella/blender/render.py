@@ -106,11 +106,9 @@ def _principled(nt, stack):
     """The closest Principled BSDF stand-in artists use today: a metal with the conductor's
     normal-incidence colour and roughness, under one clear coat with the top coat's IOR and
     roughness (Blender roughness r = sqrt(alpha))."""
-    from ..core.stack import Conductor
-
     p = nt.nodes.new("ShaderNodeBsdfPrincipled")
     b = stack.base
-    if isinstance(b, Conductor):
+    if b.type == "conductor":
         n_top = stack.coats[-1].ior if stack.coats else 1.0
         f0 = [((e / n_top - 1) ** 2 + (k / n_top) ** 2) / ((e / n_top + 1) ** 2 + (k / n_top) ** 2) for e, k in zip(b.eta, b.k)]
         p.inputs["Base Color"].default_value = (*f0, 1.0)

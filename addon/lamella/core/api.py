@@ -1,8 +1,9 @@
 """The Python API of DESIGN.md ("Contract: the Python API"): ``lobes``, ``evaluate``, ``albedo``.
 
-Runs the one model on the numpy backend. ``model`` is a name of ``MODELS`` or a
-``models.Variant`` (e.g. ``models.variant("yamaguchi2019", mapping="weier")``); ``dtype`` selects
-float64 (default) or float32 evaluation.
+Runs the one model on the numpy backend. ``model`` is a name of ``MODELS`` (``"auto"`` picks one
+by the stack's structure, ``models.choose_auto``) or a model object (e.g.
+``models.variant("yamaguchi2019", mapping="weier")``); ``dtype`` selects float64 (default) or
+float32 evaluation. Lobes are evaluated through the lobe-kind table (``lobe_kinds``).
 """
 from __future__ import annotations
 
@@ -10,17 +11,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import lobe_kinds
 from .backends.numpy_ops import NumpyOps
-from .models import VARIANTS, UnsupportedStack, Variant, eval_lobes_cos, run_model, variant
+from .models import MODELS as _REGISTRY
+from .models import UnsupportedStack, resolve
 from .stack import Stack
 
-MODELS = ("auto", *VARIANTS)
+MODELS = ("auto", *_REGISTRY)
 
 
 @dataclass
 class Lobes:
     """Lobes per incident direction: ``weight`` (N, K, 3), ``alpha_x``, ``alpha_y``,
-    ``rotation`` (N, K) and ``kinds`` (K,)."""
+    ``rotation`` (N, K), ``kinds`` (K,) and ``model``, the model that made them (what ``auto``
+    picked)."""
 
     weight: np.ndarray
     alpha_x: np.ndarray
@@ -28,10 +32,6 @@ class Lobes:
     rotation: np.ndarray
     kinds: tuple[str, ...]
     model: str
-
-
-def _resolve(model) -> Variant:
-    return model if isinstance(model, Variant) else variant(model)
 
 
 def _dirs(w, dtype) -> np.ndarray:
@@ -45,11 +45,11 @@ def _dirs(w, dtype) -> np.ndarray:
 
 def _run(stack, wi, model, dtype):
     stack = Stack.coerce(stack)
-    v = _resolve(model)
+    v = resolve(model, stack)
     ops = NumpyOps(dtype)
     wi = _dirs(wi, ops.dtype)
     wi_vals = tuple(ops.input(n, wi[:, k]) for k, n in enumerate(("wi_x", "wi_y", "wi_z")))
-    return ops, v, wi_vals, run_model(ops, stack, wi_vals, v)
+    return ops, v, wi_vals, v.run(ops, stack, wi_vals)
 
 
 def _full(x, n, dtype):
@@ -76,7 +76,7 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64) -> np.ndarray:
     wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
     ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
     wo_vals = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
-    f = eval_lobes_cos(ops, ls, wi_vals, wo_vals)
+    f = lobe_kinds.eval_lobes_cos(ops, ls, wi_vals, wo_vals)
     return np.stack([_full(c, wo.shape[0], ops.dtype) for c in f], -1)
 
 
@@ -86,8 +86,7 @@ def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64) -> np.nd
     if side not in ("reflected", "transmitted"):
         raise ValueError(f"side must be 'reflected' or 'transmitted', got {side!r}")
     lb = lobes(stack, wi, model, dtype)
-    refl = np.array([k == "reflection" for k in lb.kinds])
-    sel = refl if side == "reflected" else ~refl
+    sel = [k for k, name in enumerate(lb.kinds) if lobe_kinds.kind(name).side == side]
     return lb.weight[:, sel, :].sum(1)
 
 

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .stack import Conductor, Dielectric, Diffuse, Stack
+from .stack import Stack
 
 ALPHA_MIN = 1e-4  # a rough interface with one zero axis is evaluated with this floor on that axis
 MAX_EVENTS = 256
@@ -153,7 +153,7 @@ class _Layers:
         rough = [c.roughness for c in coats]
         rot = [c.rotation for c in coats]
         b = stack.base
-        if isinstance(b, Diffuse):
+        if b.type == "diffuse":
             rough.append((0.0, 0.0))
             rot.append(0.0)
         else:
@@ -165,7 +165,7 @@ class _Layers:
         self.cos_r = np.cos(rot)
         self.sin_r = np.sin(rot)
         self.base = b
-        self.n_sub = b.ior if isinstance(b, Dielectric) else None
+        self.n_sub = b.ior if b.type == "dielectric" else None
 
     def to_local(self, j, w):
         c, s = self.cos_r[j], self.sin_r[j]
@@ -251,14 +251,14 @@ class _Exit:
         F = np.zeros((P, N + 1, 3))
         for j in range(N + 1):
             cj = self.c[:, j]
-            if j < N or isinstance(L.base, Dielectric):
+            if j < N or L.base.type == "dielectric":
                 F[:, j] = _fresnel_dielectric(cj, n_all[j + 1] / n_all[j])[:, None]
-            elif isinstance(L.base, Conductor):
+            elif L.base.type == "conductor":
                 F[:, j] = np.stack([_fresnel_conductor(cj, L.base.eta[c] / L.n[N], L.base.k[c] / L.n[N])
                                     for c in range(3)], -1)
         self.F = F
         delta = L.smooth.copy()
-        if isinstance(L.base, Diffuse):
+        if L.base.type == "diffuse":
             delta[N] = False
         # looking down from medium m at interface m (and below), delta-only, non-delta absorbs
         Rb = np.zeros((P, N + 2, 3))
@@ -340,7 +340,7 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
             sel = np.nonzero(alive & pending & (at_iface == j))[0]
             if sel.size == 0:
                 continue
-            if not L.smooth[j] or (j == N and isinstance(L.base, Diffuse)):
+            if not L.smooth[j] or (j == N and L.base.type == "diffuse"):
                 scattered[sel] = True
             _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng)
         # --- propagation inside media
@@ -374,7 +374,7 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
     i = -wj
     flip = i[:, 2] < 0  # frame in which the packet arrives from +z
     i_f = _flip(i, flip)
-    if is_base and isinstance(L.base, Diffuse):
+    if is_base and L.base.type == "diffuse":
         # Lambertian: NEE then cosine sampling
         if exit_ is not None:
             up_pair = exit_.up[pair[sel]]
@@ -391,7 +391,7 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
         pending[sel] = False
         return
     conductor = None
-    if is_base and isinstance(L.base, Conductor):
+    if is_base and L.base.type == "conductor":
         conductor = (np.asarray(L.base.eta) / n_above, np.asarray(L.base.k) / n_above)
         eta_rel = None
     else:

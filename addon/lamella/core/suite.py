@@ -61,3 +61,12 @@ def wo_grid(wi: np.ndarray, n_theta: int = 16, n_phi: int = 24) -> tuple[np.ndar
     weight = 4.0 * c * d_omega_h
     keep = (wo[:, 2] > 1e-6) & (c > 0)
     return wo[keep], weight[keep]
+
+
+def wo_grid_transmitted(wi: np.ndarray, n_theta: int = 16, n_phi: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """The lower-hemisphere counterpart of ``wo_grid`` for stacks on a transmissive base: the
+    reflection grid mirrored through the surface, so its cells crowd around the straight-through
+    direction -wi (the mean direction of light crossing a plate with the same medium on both
+    sides) and its weights integrate over the lower hemisphere."""
+    wo, weight = wo_grid(wi, n_theta, n_phi)
+    return wo * np.array([1.0, 1.0, -1.0]), weight

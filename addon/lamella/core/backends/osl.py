@@ -1,11 +1,12 @@
 """OSL backend: print the traced model as a straight-line Cycles OSL shader (DESIGN.md "One model,
-three backends"; issue 3).
+three backends").
 
 The model is traced once with ``Tracer`` (layer loops unrolled, structure resolved, constants
 folded, sub-expressions shared); every graph node becomes one ``float``/``int`` temporary, every
-per-layer parameter a shader input (so the Script node shows it as a socket), and every lobe a GGX
-``microfacet`` closure weighted by its energy over GD (paper 001 Eq. 37: Cycles' single-scattering
-GGX closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
+per-layer parameter a shader input (so the Script node shows it as a socket), and every lobe the
+closure its kind names in the lobe-kind table (``lamella.core.lobe_kinds``), weighted by its energy
+times the kind's normaliser (for GGX, 1 / GD: paper 001 Eq. 37; Cycles' single-scattering GGX
+closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
 the helpers of ``osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
 tables in ``lut_dir``.
 """
@@ -14,10 +15,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .. import luts
-from ..models import run_model, variant
-from ..models.fgd import gd
-from ..models.variance import rms_alpha
+from .. import lobe_kinds, luts
+from ..models import resolve
 from ..stack import Stack
 from .trace import Expr, Tracer
 
@@ -121,38 +120,23 @@ class _Printer:
                 f"{spec.shape[0]}, {spec.shape[1]}, {spec.shape[2]})")
 
 
-def _reflection_closure(ax: str, ay: str, c: str, s: str) -> str:
-    """A GD-normalised GGX reflection lobe (its weight is its energy) on the lobe's own axes: the
-    shading tangent turned by the lobe rotation (cos c, sin s) about the normal."""
-    tangent = "Tn" if (c, s) == ("1.0", "0.0") else f"normalize({c} * Tn + {s} * Bn)"
-    return f'microfacet("ggx", Normal, {tangent}, {ax}, {ay}, 1.0, 0)'
-
-
-# Lobe kind (models.Lobe.kind) -> the OSL closure that renders it. New model code adds a kind here
-# (refraction through a dielectric base, diffuse(Normal) for a diffuse base); nothing else in the
-# emitter depends on the model.
-CLOSURE_KINDS = {"reflection": _reflection_closure}
-
-
 def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None) -> str:
     """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``."""
     stack = Stack.coerce(stack)
-    v = variant(model)
+    v = resolve(model, stack)
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
-    lobes = run_model(t, stack, wi, v)
+    lobes = v.run(t, stack, wi)
     t.set_scope("closures")
     outputs, closures = [], []
     for lobe in lobes:
-        if lobe.kind not in CLOSURE_KINDS:
-            raise NotImplementedError(f"lobe kind {lobe.kind!r} has no OSL closure yet (have: {', '.join(CLOSURE_KINDS)})")
-        norm = 1.0 / t.max(gd(t, wi[2], rms_alpha(t, lobe.alpha_x, lobe.alpha_y)), 1e-6)
-        w = [c * norm for c in lobe.weight]
+        scale = lobe_kinds.kind(lobe.kind).scale(t, lobe, wi)
+        w = [c * scale for c in lobe.weight]
         closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
         outputs.extend([*w, lobe.alpha_x, lobe.alpha_y, closures[-1][3], closures[-1][4]])
     p = _Printer(t)
     sections = {"setup": "incident direction", "lobes": "lobes (energies, roughness, axes)",
-                "closures": "closure weights: energy / GD (the lobe normaliser)",
+                "closures": "closure weights: energy x the lobe kind's normaliser (1 / GD for GGX)",
                 "base": f"base: {stack.base.type} and the adding of the stack above it"}
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = (f"coat {i}: interface from above, refraction into it"
@@ -180,9 +164,10 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
     for k, ((w, ax, ay, c, s), lobe) in enumerate(zip(closures, lobes)):
         r, g, b = (p.ref(x) for x in w)
         body += [
-            f"    // lobe {k}: {'coat ' + str(k) if k < len(stack.coats) else 'base'} and everything it sends back up",
+            f"    // lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
+            + (" and everything it sends back up" if lobe.kind == "reflection" else ""),
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
-            f"        BSDF += color({r}, {g}, {b}) * {CLOSURE_KINDS[lobe.kind](*(p.ref(x) for x in (ax, ay, c, s)))};",
+            f"        BSDF += color({r}, {g}, {b}) * {lobe_kinds.kind(lobe.kind).osl(*(p.ref(x) for x in (ax, ay, c, s)))};",
         ]
     header = (OSL_DIR / LUT_HEADER).read_text()
     desc = stack.to_json(indent=None)

@@ -1,33 +1,67 @@
 """The layered models, written once over the abstract ops (no numpy import anywhere in here).
 
-``VARIANTS`` maps each public model name to its definition; ``run_model`` traces/evaluates one on
-any backend; ``eval_lobes_cos`` turns lobes into f(wi, wo) * wo.z with the GD normalisation of
-paper 001 Eq. (37) so that a lobe of weight e reflects exactly e.
+``MODELS`` is the registry of model families by public name; each entry has ``name`` and
+``run(ops, stack, wi) -> list[Lobe]`` and traces/evaluates on any backend. ``auto`` resolves to a
+registered model by the stack's structure alone (``choose_auto``). Lobes are evaluated through
+the lobe-kind table (``lamella.core.lobe_kinds``).
 """
 from __future__ import annotations
 
-from .adding_doubling import Lobe, UnsupportedStack, Variant, adding_doubling
-from .fgd import gd
-from .ggx import ggx_lobe_cos
+from .adding_doubling import Lobe, UnsupportedStack, Variant
 from .rgb import RGB
+from .transfer_matrix import TransferMatrix
 from .roughness import MAPPINGS
-from .variance import AxisVariance, CovarianceVariance, ScalarVariance, rms_alpha
+from .variance import AxisVariance, CovarianceVariance, ScalarVariance
 
-VARIANTS = {
+MODELS: dict = {
     "belcour2018": Variant("belcour2018", ScalarVariance, MAPPINGS["belcour"]),
     "weier2020": Variant("weier2020", AxisVariance, MAPPINGS["weier"]),
     "yamaguchi2019": Variant("yamaguchi2019", CovarianceVariance, MAPPINGS["belcour"]),
+    "tm2": TransferMatrix("tm2", six_flux=False),
+    "tm6": TransferMatrix("tm6", six_flux=True),
 }
-AUTO = "yamaguchi2019"  # the most general applicable model for the stacks supported so far
+VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
+
+
+def choose_auto(stack) -> str:
+    """The model ``auto`` runs for ``stack``: a pure function of the stack's structure, so a
+    shader traced with ``auto`` is static code. Decision table (measured in bench/accuracy.md):
+
+    ====================================  ==============  =====================================
+    stack                                 model           why
+    ====================================  ==============  =====================================
+    any coat scatters (sigma_s > 0)       tm6             the only model with secondary fluxes
+                                                          (forward and back scattering)
+    interfaces, absorbing coats, any      yamaguchi2019   2x2 covariance: follows rotated
+    base                                                  anisotropy; the adding-doubling
+                                                          family is best on these cases
+    ====================================  ==============  =====================================
+    """
+    if stack.has_scattering:
+        return "tm6"
+    return "yamaguchi2019"
+
+
+def get(name: str):
+    """The registered model ``name`` (``"auto"`` is not resolved here: see ``resolve``)."""
+    if name not in MODELS:
+        raise ValueError(f"unknown model {name!r}; available: {', '.join(['auto', *MODELS])}")
+    return MODELS[name]
+
+
+def resolve(model, stack):
+    """A model object for a name (``"auto"`` chosen by structure) or a model object itself."""
+    if not isinstance(model, str):
+        return model
+    return get(choose_auto(stack) if model == "auto" else model)
 
 
 def variant(name: str, mapping: str | None = None, tir: bool | None = None) -> Variant:
-    """A variant by name, optionally with another roughness<->variance mapping or TIR switch."""
-    if name == "auto":
-        name = AUTO
-    if name not in VARIANTS:
-        raise ValueError(f"unknown model {name!r}; available: {', '.join(['auto', *VARIANTS])}")
-    v = VARIANTS[name]
+    """An adding-doubling variant by name, optionally with another roughness<->variance mapping
+    or TIR switch (for studies; the registry holds the published ones)."""
+    v = get("yamaguchi2019" if name == "auto" else name)
+    if not isinstance(v, Variant):
+        raise ValueError(f"{name!r} is not an adding-doubling variant")
     if mapping is not None:
         v = Variant(v.name, v.spread, MAPPINGS[mapping], v.tir)
     if tir is not None:
@@ -35,25 +69,11 @@ def variant(name: str, mapping: str | None = None, tir: bool | None = None) -> V
     return v
 
 
-def run_model(ops, stack, wi, model: Variant) -> list[Lobe]:
-    return adding_doubling(ops, stack, wi, model)
+def run_model(ops, stack, wi, model) -> list[Lobe]:
+    return resolve(model, stack).run(ops, stack, wi)
 
 
-def eval_lobes_cos(ops, lobes: list[Lobe], wi, wo) -> RGB:
-    """sum_k e_k rho(wi, wo; alpha_k) wo.z / GD(wi, alpha_k) (paper 001 Eqs. 37-38). GD is read
-    at the lobe's RMS roughness: exact for isotropic lobes, and within a few percent of the
-    numerically integrated albedo of anisotropic GGX up to 70 degrees (the projected roughness
-    along wi is much worse; measured in tests/unit/test_models.py)."""
-    total = RGB.splat(0.0)
-    wz = wi[2]
-    for lobe in lobes:
-        c, s = ops.cos(lobe.rotation), ops.sin(lobe.rotation)
-        rho_cos = ggx_lobe_cos(ops, wi, wo, lobe.alpha_x, lobe.alpha_y, c, s)
-        a_rms = rms_alpha(ops, lobe.alpha_x, lobe.alpha_y)
-        norm = rho_cos / ops.max(gd(ops, wz, a_rms), 1e-6)
-        total = total + lobe.weight * norm
-    return total
+from ..lobe_kinds import eval_lobes_cos  # noqa: E402  (the lobe table imports models.fgd)
 
-
-__all__ = ["Lobe", "UnsupportedStack", "Variant", "VARIANTS", "AUTO", "variant", "run_model",
-           "eval_lobes_cos", "RGB"]
+__all__ = ["Lobe", "UnsupportedStack", "Variant", "MODELS", "VARIANTS", "choose_auto", "get", "resolve",
+           "variant", "run_model", "eval_lobes_cos", "RGB"]

@@ -1,0 +1,59 @@
+"""The coat: a slab whose top interface separates the medium above from its interior of index
+``ior``, a homogeneous medium of ``thickness`` with absorption ``sigma_a``, scattering ``sigma_s``
+(per unit length, RGB) and Henyey-Greenstein asymmetry ``g`` (DESIGN.md, "Contract: the stack
+description"). A coat whose ior equals the medium above and whose roughness is 0 is a pure
+medium (dust, fog)."""
+from __future__ import annotations
+
+from .params import rgb_param, roughness_params
+from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, layer_kind
+
+FIELDS = (
+    Field("ior", FLOAT, 1.5, "index of refraction of the coat's interior (absolute)", "",
+          lo=0.0, lo_open=True, soft=(1.0, 3.0)),
+    Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the top interface: a number or [alpha_x, alpha_y]",
+          "GGX alpha", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
+    Field("rotation", ANGLE, 0.0, "turn of the interface's anisotropy axes about the normal", "rad",
+          soft=(-3.141592653589793, 3.141592653589793)),
+    Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, soft=(0.0, 10.0)),
+    Field("sigma_a", RGB, [0.0, 0.0, 0.0], "absorption coefficient of the interior", "1/length",
+          lo=0.0, soft=(0.0, 10.0)),
+    Field("sigma_s", RGB, [0.0, 0.0, 0.0], "scattering coefficient of the interior", "1/length",
+          lo=0.0, soft=(0.0, 10.0)),
+    Field("g", FLOAT, 0.0, "Henyey-Greenstein asymmetry of the interior's scattering", "",
+          lo=-1.0, hi=1.0, lo_open=True, hi_open=True, soft=(-0.99, 0.99)),
+)
+
+
+def _is_smooth(self) -> bool:
+    return self.roughness[0] == 0.0 and self.roughness[1] == 0.0
+
+
+def _has_absorption(self) -> bool:
+    return self.thickness > 0.0 and any(s > 0.0 for s in self.sigma_a)
+
+
+def _has_scattering(self) -> bool:
+    return self.thickness > 0.0 and any(s > 0.0 for s in self.sigma_s)
+
+
+def params(ops, prefix: str, coat) -> dict:
+    """ior and roughness always; thickness and sigma_a only for an absorbing interior, sigma_s and
+    g only for a scattering one (a clear coat traces to no medium code)."""
+    p = {"ior": ops.param(f"{prefix}_ior", coat.ior), **roughness_params(ops, prefix, coat.roughness, coat.rotation)}
+    if coat.has_absorption or coat.has_scattering:
+        p["thickness"] = ops.param(f"{prefix}_thickness", coat.thickness)
+    if coat.has_absorption:
+        p["sigma_a"] = rgb_param(ops, f"{prefix}_sigma_a", coat.sigma_a)
+    if coat.has_scattering:
+        p["sigma_s"] = rgb_param(ops, f"{prefix}_sigma_s", coat.sigma_s)
+        p["g"] = ops.param(f"{prefix}_g", coat.g)
+    return p
+
+
+KIND = layer_kind("coat", "coat", "Coat", FIELDS, __doc__, params, namespace={
+    "is_smooth": property(_is_smooth),
+    "has_absorption": property(_has_absorption),
+    "has_scattering": property(_has_scattering),
+})
+Coat = KIND.cls

@@ -1,0 +1,33 @@
+"""The conductor base: an opaque metal of absolute complex index ``eta + i k`` (RGB, as published
+measurements give it); under a coat of index n its interface sees ``(eta + i k) / n``."""
+from __future__ import annotations
+
+from .params import BaseResponse, rgb_param, roughness_params
+from .schema import ANGLE, RGB, ROUGHNESS, Field, layer_kind
+
+FIELDS = (
+    Field("eta", RGB, [0.143, 0.374, 1.442], "real part of the complex index of refraction (absolute)", "",
+          lo=0.0, lo_open=True, soft=(0.01, 5.0)),
+    Field("k", RGB, [3.983, 2.385, 1.603], "extinction coefficient: imaginary part of the index", "",
+          lo=0.0, soft=(0.0, 10.0)),
+    Field("roughness", ROUGHNESS, 0.0, "GGX alpha: a number or [alpha_x, alpha_y]", "GGX alpha",
+          lo=0.0, hi=1.0, soft=(0.0, 1.0)),
+    Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
+          soft=(-3.141592653589793, 3.141592653589793)),
+)
+
+
+def params(ops, prefix: str, base) -> dict:
+    return {"eta": rgb_param(ops, f"{prefix}_eta", base.eta), "k": rgb_param(ops, f"{prefix}_k", base.k),
+            **roughness_params(ops, prefix, base.roughness, base.rotation)}
+
+
+def response(ops, p, mu, alpha, n_above) -> BaseResponse:
+    """FGD of the rough conductor with exact complex Fresnel (paper 001 Eq. 8)."""
+    from ..models.fgd import fgd_conductor
+
+    return BaseResponse(reflectance=fgd_conductor(ops, mu, alpha, p["eta"] / n_above, p["k"] / n_above))
+
+
+KIND = layer_kind("conductor", "base", "Conductor", FIELDS, __doc__, params, response)
+Conductor = KIND.cls

@@ -1,0 +1,35 @@
+"""The dielectric base: a transmissive substrate (a glass half-space) of absolute index ``ior``
+under a rough interface; light crossing it leaves the stack downward (coated glass; with
+``ior`` 1 under a glass coat, a plate with air on both sides)."""
+from __future__ import annotations
+
+from .params import BaseResponse, roughness_params
+from .schema import ANGLE, FLOAT, ROUGHNESS, Field, layer_kind
+from ..models.rgb import RGB as RGBValue
+
+FIELDS = (
+    Field("ior", FLOAT, 1.5, "index of refraction of the substrate (absolute)", "", lo=0.0, lo_open=True,
+          soft=(1.0, 3.0)),
+    Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the interface: a number or [alpha_x, alpha_y]", "GGX alpha",
+          lo=0.0, hi=1.0, soft=(0.0, 1.0)),
+    Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
+          soft=(-3.141592653589793, 3.141592653589793)),
+)
+
+
+def params(ops, prefix: str, base) -> dict:
+    return {"ior": ops.param(f"{prefix}_ior", base.ior), **roughness_params(ops, prefix, base.roughness, base.rotation)}
+
+
+def response(ops, p, mu, alpha, n_above) -> BaseResponse:
+    """FGD of the rough dielectric interface (total internal reflection included when the
+    substrate is optically thinner), the rest transmitted (T = 1 - R, as for the coats)."""
+    from ..models.fgd import fgd_dielectric
+
+    eta = p["ior"] / n_above
+    r = fgd_dielectric(ops, mu, alpha, eta)
+    return BaseResponse(reflectance=RGBValue.splat(r), transmittance=RGBValue.splat(1.0 - r), eta=eta)
+
+
+KIND = layer_kind("dielectric", "base", "Dielectric", FIELDS, __doc__, params, response)
+Dielectric = KIND.cls

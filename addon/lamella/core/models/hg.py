@@ -1,0 +1,34 @@
+"""Henyey-Greenstein statistics of the transfer-matrix models (Randrianandrasana et al. 2021,
+Section 4-6): the GGX alpha <-> HG asymmetry fit, the transmitted-asymmetry operator and the
+back-scattered fraction of a HG phase function."""
+from __future__ import annotations
+
+G_ALPHA_MAX = -0.085 + 1.085 / (1.0 + 2.0 ** 1.3)  # g(alpha = 1): rougher lobes clamp to alpha 1
+
+
+def g_of_alpha(ops, alpha):
+    """Asymmetry of the HG lobe equivalent to a GGX reflection of roughness alpha at normal
+    incidence (Randrianandrasana et al. 2021, Eq. 15): g = -0.085 + 1.085 / (1 + (alpha/0.5)^1.3)."""
+    return -0.085 + 1.085 / (1.0 + ops.pow(ops.max(alpha, 0.0) * 2.0, 1.3))
+
+
+def alpha_of_g(ops, g):
+    """Inverse of Eq. 15: alpha = 0.5 (1.085 / (g + 0.085) - 1)^(1/1.3), clamped to [0, 1] (a lobe
+    broader than alpha 1, g below G_ALPHA_MAX, is drawn at alpha 1)."""
+    gc = ops.clamp(g, G_ALPHA_MAX, 1.0)
+    return ops.clamp(0.5 * ops.pow(ops.max(1.085 / (gc + 0.085) - 1.0, 0.0), 1.0 / 1.3), 0.0, 1.0)
+
+
+def transmitted_g(ops, g, eta_ratio):
+    """Asymmetry of an HG lobe after a smooth interface from index n_i onto n_t,
+    eta_ratio = n_i / n_t (Eq. 17): h(g) = sqrt(1 - clamp((1 - g^2) eta_ratio^(3/4), 0, 1))."""
+    t = (1.0 - g * g) * ops.pow(ops.max(eta_ratio, 0.0), 0.75)
+    return ops.sqrt(1.0 - ops.clamp(t, 0.0, 1.0))
+
+
+def backscatter_fraction(ops, g):
+    """p-(g): the fraction of a HG phase function scattered into the backward hemisphere
+    (Eqs. 30-31): Q(|g|) for g >= 0, 1 - Q(|g|) otherwise, Q(u) = 0.5039 - 0.8254 u + 0.3226 u^2."""
+    u = ops.abs(g)
+    q = 0.5039 - 0.8254 * u + 0.3226 * u * u
+    return ops.select(g >= 0.0, q, 1.0 - q)

@@ -1,0 +1,290 @@
+"""The transfer-matrix models TM2 and TM6 (Randrianandrasana et al. 2021, Sections 5-6,
+Algorithm 1), written once over the abstract ops.
+
+Light is summarised per flux family by an energy and an unnormalised Henyey-Greenstein asymmetry
+(energy x g, Section 4): the primary flux ``p`` (never scattered by a medium) and, in TM6, the
+forward-scattered ``f`` and back-scattered ``b`` secondary fluxes (Section 6.1; ``f`` keeps the
+tangential direction of the primary, ``b`` reverses it, so it leaves toward the viewer). Each
+component -- a rough interface, a homogeneous medium, the base -- maps family fluxes to family
+fluxes: interfaces keep families apart (Eq. 36), media turn primary into secondary and swap ``f``
+and ``b`` on back-scattering (Eq. 32).
+
+The product of transfer matrices (Eq. 26 and Algorithm 1, step 3) is evaluated in its adding
+form: each component and each partial stack is held as its reflection and transmission matrices
+from either side, R_top, T_down, R_bottom, T_up, combined by
+
+    R_top' = R_top + T_up (I - R_c R_bottom)^-1 R_c T_down, T_down' = T_c (I - R_bottom R_c)^-1 T_down,
+    R_bottom' = R_c,b + T_c (I - R_bottom R_c)^-1 R_bottom T_c,u, T_up' = T_up (I - R_c R_bottom)^-1 T_c,u,
+
+the same result as multiplying transfer matrices and reading it with the operators R, T, R^f, R^b
+and T^f of Eqs. 5-6 and 27-29, without ever dividing by a transmission (a transfer matrix holds
+1 / T, infinite under total internal reflection or in a thick medium). Family matrices are
+block lower-triangular (nothing becomes primary again), so (I - X)^-1 needs one scalar and one
+2x2 inverse per channel. Energies and asymmetries go through the same algebra (Eqs. 20-21).
+
+Lobes (Eq. 23): after adding each component, the part of the top reflectance it added, per
+family, is one lobe: p and f lobes about the mirror direction, b lobes about the incident
+direction (kind ``backscatter``), each with alpha = g^-1(G / E) (Eq. 15 inverted). A conductor
+base reflects every family (Eq. 24); a dielectric base's transmission is the transmitted lobe
+(Eq. 25); a Lambertian base sends back up what reaches it through ``diffuse_transport``.
+
+Interfaces: R = FGD at the mean direction (exact Fresnel, total internal reflection included),
+T = 1 - R, the same from both sides (as the adding-doubling models), with Belcour 2018's TIR
+correction on the upward transmission of each interface (local escape cone, at the roughness of
+the light coming back up); asymmetries g_R = g(alpha) and g_T from the first-order tracking of
+Eq. 22 with the smooth-interface operator of Eq. 17 and Belcour's scale of Eq. 9. Media: see
+``homogeneous_medium.py``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import hg
+from .adding_doubling import COS_FLOOR, Lobe, UnsupportedStack, layer_params
+from .diffuse_transport import DiffuseUp, diffuse_transmittance
+from .fgd import fgd_dielectric, tir_fraction
+from .homogeneous_medium import kubelka_munk, slab
+from .rgb import RGB
+from .variance import rms_alpha
+
+P, F, B = 0, 1, 2
+FAMILY_KINDS = {P: "reflection", F: "reflection", B: "backscatter"}
+EPS = 1e-7
+
+
+# ---------------------------------------------------------------- family matrices
+# A family matrix is a dict {(out, in): RGB}; a missing entry is a structural zero (no code).
+def _mul(a: dict, b: dict) -> dict:
+    out: dict = {}
+    for (i, k), x in a.items():
+        for (k2, j), y in b.items():
+            if k == k2:
+                out[(i, j)] = out[(i, j)] + x * y if (i, j) in out else x * y
+    return out
+
+
+def _add(a: dict, b: dict) -> dict:
+    out = dict(a)
+    for key, y in b.items():
+        out[key] = out[key] + y if key in out else y
+    return out
+
+
+def _diag(value, n: int) -> dict:
+    return {(k, k): value for k in range(n)}
+
+
+def _inv_i_minus(ops, a: dict, n: int) -> dict:
+    """(I - a)^-1 for a block lower-triangular family matrix (no entry (P, F) or (P, B))."""
+    if any(i == P and j != P for i, j in a):
+        raise AssertionError("family matrices never feed the primary flux from a secondary one")
+
+    def guard(d):
+        return d.map(lambda x: ops.max(x, EPS))
+
+    one = RGB.splat(1.0)
+    out: dict = {}
+    inv_p = one / guard(one - a[(P, P)]) if (P, P) in a else one
+    out[(P, P)] = inv_p
+    if n == 1:
+        return out
+    z = RGB.splat(0.0)
+    b11, b12 = a.get((F, F), z), a.get((F, B), z)
+    b21, b22 = a.get((B, F), z), a.get((B, B), z)
+    det = guard((one - b11) * (one - b22) - b12 * b21)
+    inv = {(F, F): (one - b22) / det, (F, B): b12 / det, (B, F): b21 / det, (B, B): (one - b11) / det}
+    out.update(inv)
+    for i in (F, B):  # secondary fed by the primary: sum_m inv[i, m] a[m, P] / (1 - a[P, P])
+        terms = [inv[(i, m)] * a[(m, P)] for m in (F, B) if (m, P) in a]
+        if terms:
+            acc = terms[0]
+            for t in terms[1:]:
+                acc = acc + t
+            out[(i, P)] = acc * inv_p
+    return out
+
+
+@dataclass
+class Component:
+    """Reflection and transmission family matrices of a component (or a partial stack) from
+    either side: ``rt`` light arriving from above and returned up, ``td`` crossing downward,
+    ``rb`` arriving from below and returned down, ``tu`` crossing upward."""
+
+    rt: dict
+    td: dict
+    rb: dict
+    tu: dict
+
+
+def _stack(ops, s: Component, c: Component, n: int) -> Component:
+    """The partial stack ``s`` with component ``c`` added below it (the adding form of the
+    transfer-matrix product)."""
+    down = _inv_i_minus(ops, _mul(s.rb, c.rt), n)  # bounces seen by light going down into c
+    up = _inv_i_minus(ops, _mul(c.rt, s.rb), n)  # ... and by light going up into s
+    return Component(
+        rt=_add(s.rt, _mul(s.tu, _mul(up, _mul(c.rt, s.td)))),
+        td=_mul(c.td, _mul(down, s.td)),
+        rb=_add(c.rb, _mul(c.td, _mul(down, _mul(s.rb, c.tu)))),
+        tu=_mul(s.tu, _mul(up, c.tu)),
+    )
+
+
+def _empty(n: int) -> Component:
+    one = RGB.splat(1.0)
+    return Component({}, _diag(one, n), {}, _diag(one, n))
+
+
+# ---------------------------------------------------------------- the model
+@dataclass(frozen=True)
+class TransferMatrix:
+    """A registered transfer-matrix model: ``six_flux`` False is TM2 (Section 5; scattering media
+    unsupported), True is TM6 (Section 6)."""
+
+    name: str
+    six_flux: bool
+
+    def run(self, ops, stack, wi) -> list[Lobe]:
+        return transfer_matrix(ops, stack, wi, self)
+
+
+def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
+    if not model.six_flux:
+        for i, c in enumerate(stack.coats):
+            if c.has_scattering:
+                raise UnsupportedStack(f"{model.name}: coat {i} scatters (sigma_s > 0); the two-flux model has "
+                                       "no secondary fluxes (use tm6)")
+    n = 3 if (model.six_flux and stack.has_scattering) else 1
+    coats, base = layer_params(ops, stack)
+    diffuse_up = DiffuseUp() if stack.base.type == "diffuse" else None
+
+    wx, wy, wz = wi
+    cti = ops.clamp(wz, 0.0, 1.0)
+    sx, sy = wx, wy
+    n_above = 1.0
+    g1 = 1.0  # first-order asymmetry of the primary in the current medium (Algorithm 1)
+
+    E, G = _empty(n), _empty(n)
+    lobes: list[Lobe] = []
+
+    def add(ce: Component, cg: Component, label: str):
+        nonlocal E, G
+        E_new, G_new = _stack(ops, E, ce, n), _stack(ops, G, cg, n)
+        for fam in range(n):
+            key = (fam, P)
+            if key not in E_new.rt or E_new.rt[key] is E.rt.get(key):
+                continue
+            de = E_new.rt[key] - E.rt[key] if key in E.rt else E_new.rt[key]
+            dg = G_new.rt[key] - G.rt[key] if key in G.rt else G_new.rt.get(key, RGB.splat(0.0))
+            e = de.map(lambda x: ops.max(x, 0.0))
+            ea, ga = e.average(), dg.average()
+            g = ops.select(ea > 1e-12, ga / ops.max(ea, 1e-12), 1.0)
+            if fam == B:
+                g = ops.abs(g)  # about the reversed direction (Eq. 34's sign convention)
+            a = hg.alpha_of_g(ops, g)
+            lobes.append(Lobe(e, a, a, 0.0, FAMILY_KINDS[fam]))
+        E, G = E_new, G_new
+
+    for index, p in enumerate(coats):
+        ops.set_scope(f"coat{index}")
+        n12 = p["ior"] / n_above
+        alpha = rms_alpha(ops, p["ax"], p["ay"])
+        R, T, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1)
+        alpha_up = hg.alpha_of_g(ops, g1_new)
+        tir = tir_fraction(ops, sx / n12, sy / n12, n12, alpha_up)  # escape back into the medium above
+        g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
+        ru, tu = R + T * (1.0 - tir), T * tir
+        ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), _diag(RGB.splat(ru), n), _diag(RGB.splat(tu), n))
+        cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n),
+                       _diag(RGB.splat(ru * g_r), n), _diag(RGB.splat(tu * g_t), n))
+        add(ce, cg, f"coat {index}")
+        if diffuse_up is not None:
+            diffuse_up.add_interface(ops, n12)
+        cti, sx, sy, g1, n_above = ctt, sx / n12, sy / n12, g1_new, p["ior"]
+        if "thickness" in p:
+            ce, cg, t_d, r_d = _medium(ops, p, cti, n)
+            add(ce, cg, f"coat {index} medium")
+            if diffuse_up is not None:
+                diffuse_up.add_medium(ops, t_d, r_d)
+
+    ops.set_scope("base")
+    if diffuse_up is not None:
+        reach = E.td[(P, P)]
+        for fam in range(1, n):
+            if (fam, P) in E.td:
+                reach = reach + E.td[(fam, P)]
+        albedo = stack.base.kind.response(ops, base, cti, 0.0, n_above).albedo
+        lobes.append(Lobe(diffuse_up.base_energy(ops, reach, albedo), 0.0, 0.0, 0.0, "diffuse"))
+        ops.set_scope("lobes")
+        return lobes
+
+    alpha = rms_alpha(ops, base["ax"], base["ay"])
+    resp = stack.base.kind.response(ops, base, cti, alpha, n_above)
+    g_r = hg.g_of_alpha(ops, alpha)
+    if resp.transmittance is None:
+        ce = Component(_diag(resp.reflectance, n), {}, {}, {})
+        cg = Component(_diag(resp.reflectance * g_r, n), {}, {}, {})
+        add(ce, cg, "base")
+    else:
+        R, T, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1)
+        g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
+        ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), {}, {})
+        cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n), {}, {})
+        add(ce, cg, "base")
+        # Eq. 25: everything crossing the base, every family, leaves as one transmission lobe
+        e = E.td[(P, P)]
+        gt = G.td[(P, P)]
+        for fam in range(1, n):
+            if (fam, P) in E.td:
+                e, gt = e + E.td[(fam, P)], gt + G.td[(fam, P)]
+        ea = e.average()
+        g = ops.select(ea > 1e-12, gt.average() / ops.max(ea, 1e-12), 1.0)
+        a = hg.alpha_of_g(ops, g)
+        lobes.append(Lobe(e, a, a, 0.0, "transmission", base["ior"]))
+    ops.set_scope("lobes")
+    return lobes
+
+
+def _interface(ops, cti, alpha, n12, g1):
+    """Energies and asymmetries of a rough dielectric interface at the mean direction cosine cti
+    from index n1 onto n2 = n1 n12: (R, T, cos of the refracted mean direction, g_R, first-order
+    g of the transmitted primary, Eq. 22)."""
+    cos2_num = n12 * n12 - 1.0 + cti * cti
+    transmits = cos2_num > 0.0
+    ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
+    R = ops.select(transmits, fgd_dielectric(ops, cti, alpha, n12), 1.0)
+    # Belcour's rough-transmission scale (Eq. 9): s = (1 + n12 cti / ctt) / 2 ... written for the
+    # spread of a refracted lobe; its HG asymmetry is g(s alpha)
+    s = 0.5 * (1.0 + n12 * cti / ops.max(ctt, COS_FLOOR))
+    g_t1 = hg.transmitted_g(ops, g1, 1.0 / n12) * hg.g_of_alpha(ops, ops.min(s * alpha, 1.0))
+    return R, 1.0 - R, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
+
+
+def _medium(ops, p, mu, n: int):
+    """The coat interior as a component along the refracted mean direction (cosine ``mu``): six-flux
+    factors per channel (``homogeneous_medium``), plus its diffuse transmittance and reflectance
+    for light from a diffuse base (Kubelka-Munk over twice the thickness, the mean path of
+    cosine-distributed light)."""
+    h = p["thickness"] / ops.max(mu, COS_FLOOR)
+    sig_a = p.get("sigma_a", RGB.splat(0.0))
+    if "sigma_s" not in p:  # absorption only: every family decays alike, nothing is scattered
+        t = sig_a.map(lambda s: ops.exp(-s * h))
+        t_d = sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"]))
+        return (Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n)), t_d, None)
+    sig_s, g = p["sigma_s"], p["g"]
+    sig_t = sig_a + sig_s
+    e = [slab(ops, st, ss, g, h) for st, ss in zip(sig_t, sig_s)]
+    a = [slab(ops, st, ss, g, h, asymmetry=True) for st, ss in zip(sig_t, sig_s)]
+
+    def comp(parts):
+        tpp, r, t = (RGB(*(x[k] for x in parts)) for k in range(3))
+        td = {(P, P): tpp, (F, P): t - tpp, (F, F): t, (B, B): t}
+        rt = {(B, P): r, (B, F): r, (F, B): r}
+        return Component(rt, td, dict(rt), dict(td))
+
+    # diffuse light from a Lambertian base: mean path twice the thickness
+    from .hg import backscatter_fraction
+
+    kd = [kubelka_munk(ops, st - ss * (1.0 - backscatter_fraction(ops, g)), ss * backscatter_fraction(ops, g),
+                       2.0 * p["thickness"]) for st, ss in zip(sig_t, sig_s)]
+    r_d, t_d = RGB(*(x[0] for x in kd)), RGB(*(x[1] for x in kd))
+    return comp(e), comp(a), t_d, r_d
