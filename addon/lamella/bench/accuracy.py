@@ -18,7 +18,7 @@ from ..core.metrics import albedo_error, relative_l1
 from ..core.models import UnsupportedStack
 from . import BENCH_DIR, REFERENCE_DIR
 
-MODELS = ("belcour2018", "weier2020", "yamaguchi2019")
+MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "auto")
 
 
 def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, seed: int = 1,
@@ -111,16 +111,26 @@ def format_markdown(rows: list[dict], models) -> str:
         "hemisphere grid (`lamella.core.suite.wo_grid`) / **relative albedo error**, RGB averaged,",
         "at incidence zenith angles " + ", ".join(f"{w:g}°" for w in wis) + ".",
         "`noise` is the reference's own stderr on the L1 metric (a floor below which differences are",
-        "not resolved). Best model per row in bold.",
+        "not resolved). Best model per row in bold (`auto` is the model it picks, see below).",
+        "",
+        "`auto` is a pure function of the stack's structure (`lamella.core.models.choose_auto`):",
+        "",
+        "| stack | auto runs | why |",
+        "|---|---|---|",
+        "| any coat scatters (sigma_s > 0) | tm6 | the only model with forward and back-scattered fluxes |",
+        "| interfaces and absorbing coats, any base | yamaguchi2019 | the 2x2 covariance follows rotated anisotropy; "
+        "best or tied on these cases |",
         "",
     ]
     for name in dict.fromkeys(r["case"] for r in rows):
-        lines += [f"## {name}", "", desc.get(name, ""), ""]
+        from ..core.models import choose_auto
+
+        lines += [f"## {name}", "", desc.get(name, "") + f" `auto` runs {choose_auto(suite.load(name))}.", ""]
         lines.append("| wi | " + " | ".join(models) + " | noise |")
         lines.append("|---|" + "---|" * (len(models) + 1))
         for w in wis:
             cells = {r["model"]: r for r in rows if r["case"] == name and r["wi"] == w}
-            l1s = {m: cells[m]["rel_l1"] for m in models if "rel_l1" in cells.get(m, {})}
+            l1s = {m: cells[m]["rel_l1"] for m in models if m != "auto" and "rel_l1" in cells.get(m, {})}
             best = min(l1s, key=l1s.get) if l1s else None
             out = []
             for m in models:

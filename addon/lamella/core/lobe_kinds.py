@@ -79,13 +79,37 @@ def _osl_backscatter(ax: str, ay: str, c: str, s: str) -> str:
     return f'microfacet("ggx", V, {ax}, 1.0, 0)'
 
 
-def _transmission_unavailable(ops, lobe, wi, *args):
-    raise NotImplementedError("the GGX transmission lobe has no pointwise evaluation yet (its energy is "
-                              "available: albedo(side='transmitted'))")
+def _refracted_mirror(ops, lobe, wi):
+    """The incident direction whose mirror image is the refracted mean direction's reflection
+    through the surface: (wi_x / eta, wi_y / eta, cos_t), eta the substrate's index over vacuum
+    (a stack of parallel interfaces refracts as one interface); cos_t = 0 beyond total internal
+    reflection (the lobe then carries no energy)."""
+    inv = 1.0 / lobe.eta
+    tx, ty = wi[0] * inv, wi[1] * inv
+    return tx, ty, ops.sqrt(ops.max(1.0 - tx * tx - ty * ty, 0.0))
+
+
+def _transmission_closure_cos(ops, lobe, wi, wo):
+    """Belcour 2018's rough refraction as a mirrored rough reflection (restated in
+    Randrianandrasana et al. 2021, Section 3.2): a GGX lobe about the refracted mean direction,
+    the reflection lobe of ``_refracted_mirror(wi)`` mirrored through the surface; zero above it.
+    Exact in energy by construction (GD-normalised at cos_t), symmetric about the refracted
+    direction, and well defined for a plate (eta = 1: straight through)."""
+    c, s = ops.cos(lobe.rotation), ops.sin(lobe.rotation)
+    wm = (wo[0], wo[1], -wo[2])
+    value = ggx_lobe_cos(ops, _refracted_mirror(ops, lobe, wi), wm, lobe.alpha_x, lobe.alpha_y, c, s)
+    return ops.select(wo[2] < 0.0, value, 0.0)
+
+
+def _transmission_scale(ops, lobe, wi):
+    return 1.0 / ops.max(gd(ops, _refracted_mirror(ops, lobe, wi)[2], rms_alpha(ops, lobe.alpha_x, lobe.alpha_y)),
+                         GD_FLOOR)
 
 
 def _osl_transmission_unavailable(*args) -> str:
-    raise NotImplementedError("the GGX transmission lobe has no OSL closure yet")
+    raise NotImplementedError("the transmission lobe of a dielectric base has no Cycles closure yet: Cycles' "
+                              "refracting microfacet closure is a Walter BTDF, which does not reproduce the "
+                              "mirrored-reflection lobe (and degenerates for a plate, eta = 1)")
 
 
 def _lambert_closure_cos(ops, lobe, wi, wo):
@@ -107,8 +131,8 @@ KINDS: dict[str, LobeKind] = {k.name: k for k in (
              "Lambertian reflection (the light a diffuse base sends back up)"),
     LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _osl_backscatter,
              "GGX reflection about the incident direction (light back-scattered by a medium)"),
-    LobeKind("transmission", "transmitted", _transmission_unavailable, _transmission_unavailable,
-             _osl_transmission_unavailable, "GGX refraction into the substrate below a dielectric base"),
+    LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale,
+             _osl_transmission_unavailable, "GGX lobe about the refracted direction, below a dielectric base"),
 )}
 
 

@@ -252,9 +252,12 @@ def _interface(ops, cti, alpha, n12, g1):
     transmits = cos2_num > 0.0
     ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
     R = ops.select(transmits, fgd_dielectric(ops, cti, alpha, n12), 1.0)
-    # Belcour's rough-transmission scale (Eq. 9): s = (1 + n12 cti / ctt) / 2 ... written for the
-    # spread of a refracted lobe; its HG asymmetry is g(s alpha)
-    s = 0.5 * (1.0 + n12 * cti / ops.max(ctt, COS_FLOOR))
+    # Belcour 2018's fake-refraction scale at normal incidence, as the adding-doubling models use
+    # it: a facet tilt d deviates a refracted ray by d |1 - 1 / n12|, a reflected one by 2 d, so the
+    # refracted lobe is a reflection lobe of roughness alpha |n12 - 1| / (2 n12). (The scale of
+    # Eq. 9 as printed, (1 + n12 cti / ctt) / 2, made every refracted lobe rougher than the
+    # reflected one: relative L1 1.2 on frosted_metal at normal incidence, against 0.19.)
+    s = 0.5 * ops.abs(n12 - 1.0) / n12
     g_t1 = hg.transmitted_g(ops, g1, 1.0 / n12) * hg.g_of_alpha(ops, ops.min(s * alpha, 1.0))
     return R, 1.0 - R, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
 
