@@ -62,4 +62,5 @@ def test_reference_noise_floor(rows):
     """The stored references resolve relative-L1 differences of 0.1 everywhere (measured worst:
     0.086, tinted_varnish at 0 deg, whose narrow alpha 0.05 exit interface makes the NEE noisy)."""
     for (case, model, wi), r in rows.items():
-        assert r["ref_noise"] < 0.1, (case, wi, r["ref_noise"])
+        if "unsupported" not in r:  # a model that cannot run a case has no figures for it
+            assert r["ref_noise"] < 0.1, (case, wi, r["ref_noise"])

@@ -48,8 +48,7 @@ def test_kubelka_munk_matches_the_ode_and_its_limits():
         dz = h / n
         jp, jm = 1.0, float(r)
         for _ in range(n):  # RK2
-            d1p, d1m = -alpha * jp + beta * jm, -(beta * jp - alpha * jm) * -1.0
-            d1m = alpha * jm - beta * jp
+            d1p, d1m = -alpha * jp + beta * jm, alpha * jm - beta * jp
             mp, mm = jp + 0.5 * dz * d1p, jm + 0.5 * dz * d1m
             jp, jm = jp + dz * (-alpha * mp + beta * mm), jm + dz * (alpha * mm - beta * mp)
         assert abs(jm) < 1e-6 and abs(jp - t) < 1e-6, (alpha, beta, h, jp, t, jm)

@@ -6,7 +6,7 @@ emitter and, later, the node-graph emitter all read this table and nothing else 
 A lobe of weight ``e`` (RGB energy) contributes ``e * scale(wi) * closure_cos(wi, wo)`` to
 f(wi, wo) |wo.z|, where ``closure_cos`` is exactly what the renderer's closure evaluates (f cos
 of a closure of weight 1) and ``scale`` the normaliser that makes the lobe carry its weight in
-energy (paper 001 Section 6.6, Eqs. 37-38: 1 / GD for GGX). The shader gives its closure the
+energy (Randrianandrasana et al. 2021 Section 6.6, Eqs. 37-38: 1 / GD for GGX). The shader gives its closure the
 weight ``e * scale``.
 """
 from __future__ import annotations

@@ -5,7 +5,7 @@ The model is traced once with ``Tracer`` (layer loops unrolled, structure resolv
 folded, sub-expressions shared); every graph node becomes one ``float``/``int`` temporary, every
 per-layer parameter a shader input (so the Script node shows it as a socket), and every lobe the
 closure its kind names in the lobe-kind table (``lamella.core.lobe_kinds``), weighted by its energy
-times the kind's normaliser (for GGX, 1 / GD: paper 001 Eq. 37; Cycles' single-scattering GGX
+times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al. 2021 Eq. 37; Cycles' single-scattering GGX
 closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
 the helpers of ``osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
 tables in ``lut_dir``.

@@ -29,6 +29,8 @@ class Expr:
         self.scope = tracer.scope
 
     def _bin(self, op, other, swap=False):
+        if not (_is_num(other) or isinstance(other, Expr)):
+            return NotImplemented  # e.g. an RGB triple: let its reflected operator broadcast
         a, b = (other, self) if swap else (self, other)
         return self.tracer.node(op, a, b)
 

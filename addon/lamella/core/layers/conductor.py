@@ -23,7 +23,7 @@ def params(ops, prefix: str, base) -> dict:
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:
-    """FGD of the rough conductor with exact complex Fresnel (paper 001 Eq. 8)."""
+    """FGD of the rough conductor with exact complex Fresnel (Randrianandrasana et al. 2021 Eq. 8)."""
     from ..models.fgd import fgd_conductor
 
     return BaseResponse(reflectance=fgd_conductor(ops, mu, alpha, p["eta"] / n_above, p["k"] / n_above))

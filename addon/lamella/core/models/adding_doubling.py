@@ -1,7 +1,7 @@
 """Adding-doubling of lobe statistics (energy, mean, spread) through a stack of rough interfaces.
 
-The loop is Belcour 2018's ``computeAddingDoubling`` as published in paper 003 Listing 3 (which
-restates it with per-axis variances) and reviewed in paper 001 Eqs. (7)-(12); the spread type
+The loop is Belcour 2018's ``computeAddingDoubling`` as published in Weier & Belcour 2020 Listing 3 (which
+restates it with per-axis variances) and reviewed in Randrianandrasana et al. 2021 Eqs. (7)-(12); the spread type
 (scalar, per-axis, 2x2 covariance) selects Belcour 2018, Weier & Belcour 2020 or Yamaguchi et al.
 2019 (see ``variance.py``). Written once over the abstract ops: Python control flow depends only
 on the stack's structure (number of coats, which ones absorb, the base kind).
@@ -10,14 +10,14 @@ Per interface, with cti the cosine of the mean direction above it and n12 = n_be
 
 * energies: R12 = FGD(cti, alpha, n12) (exact Fresnel + a pre-integrated rough correction, see
   ``fgd.py``), T12 = 1 - R12; R21 = R12, T21 = T12 (Belcour's symmetric approximation); the TIR
-  correction of Belcour 2018 (paper 001 after Eq. 10) moves the part of the upward transmission
+  correction of Belcour 2018 (Randrianandrasana et al. 2021 after Eq. 10) moves the part of the upward transmission
   that falls outside the escape cone into the upward reflectance;
 * spreads: s_r = f(alpha) for reflection, s_t12 = f(alpha |n12 - 1| / (2 n12)) and
   s_t21 = f(alpha |n12 - 1| / 2) for transmission (Belcour 2018's fake-refraction scale at normal
   incidence: a facet tilt d deviates a refracted ray by d |1 - n1/n2|, a reflected one by 2d),
   Jacobians j12 = n12 ctt / cti (Listing 3, lines 29-37);
-* the adding equations of Listing 3 lines 46-76 (energies: paper 001 Eqs. 1-2 and 10; spreads:
-  paper 001 Eq. 11), one output lobe per interface with energy m_R0i (the light that reached the
+* the adding equations of Listing 3 lines 46-76 (energies: Randrianandrasana et al. 2021 Eqs. 1-2 and 10; spreads:
+  Randrianandrasana et al. 2021 Eq. 11), one output lobe per interface with energy m_R0i (the light that reached the
   interface and came back out, all orders);
 * an absorbing coat interior (Beer-Lambert along the refracted mean direction, as Belcour 2018's
   medium layers without scattering): T = exp(-sigma_a d / cos), which in the adding equations
@@ -25,7 +25,7 @@ Per interface, with cti the cosine of the mean direction above it and n12 = n_be
 * the base by its kind's response (``lamella.core.layers``): a GGX reflection lobe for a
   conductor or a dielectric substrate; the energy crossing a dielectric base leaves as one GGX
   transmission lobe with the accumulated transmitted statistics (Belcour 2018's T paths; energy as
-  paper 001 Eq. 25); a Lambertian base adds one diffuse lobe whose energy comes from the adding of
+  Randrianandrasana et al. 2021 Eq. 25); a Lambertian base adds one diffuse lobe whose energy comes from the adding of
   hemispherical energies (``diffuse_transport.py``).
 """
 from __future__ import annotations
@@ -100,7 +100,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     sx, sy = wx, wy  # tangential part of the mean direction in the current medium
     n_above = 1.0
 
-    # Statistics of the part of the stack already added (paper 003 Listing 3, lines 10-13)
+    # Statistics of the part of the stack already added (Weier & Belcour 2020 Listing 3, lines 10-13)
     R0i, Ri0, T0i, Ti0 = RGB.splat(0.0), RGB.splat(0.0), RGB.splat(1.0), RGB.splat(1.0)
     s_r0i, s_ri0, s_t0i, s_ti0 = Spread.zero(), Spread.zero(), Spread.zero(), Spread.zero()
     j0i, ji0 = 1.0, 1.0
@@ -165,7 +165,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
 
 def _dielectric_interface(ops, Spread, mapping, p, sx, sy, cti, n12):
     """Energies, refracted mean direction, Jacobians and spreads of a rough dielectric interface
-    from index n_above onto n_above * n12 (paper 003 Listing 3, lines 20-37)."""
+    from index n_above onto n_above * n12 (Weier & Belcour 2020 Listing 3, lines 20-37)."""
     cos_r, sin_r = ops.cos(p["rotation"]), ops.sin(p["rotation"])
     ax, ay = p["ax"], p["ay"]
     fetch_mu, fetch_alpha = Spread.fgd_fetch(ops, sx, sy, cti, ax, ay, cos_r, sin_r)
@@ -198,7 +198,7 @@ def _add_interface(ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12,
     s_r0i, s_t0i, s_ri0, s_ti0 = spreads
     R21, T21, s_r21 = R12, T12, s_r12
 
-    # Belcour 2018's TIR correction (paper 001, after Eq. 10): of the light this interface
+    # Belcour 2018's TIR correction (Randrianandrasana et al. 2021, after Eq. 10): of the light this interface
     # sends up, the part outside the escape cone is reflected back down by the stack above.
     # It corrects the stack-above statistics seen by *this* interface's lobe only; the
     # persisted statistics stay uncorrected so that the correction is not compounded at every

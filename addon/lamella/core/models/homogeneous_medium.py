@@ -22,6 +22,8 @@ optical depth (0 beyond float range), so the shader's cost and stability do not 
 """
 from __future__ import annotations
 
+from .hg import backscatter_fraction
+
 SERIES_BELOW = 1e-3  # gamma h' below which D uses its series h' (1 - x + 2 x^2 / 3)
 
 
@@ -44,8 +46,6 @@ def slab(ops, sigma_t, sigma_s, g, h, asymmetry: bool = False):
 
     Energies (``asymmetry=False``, Eq. 33): tau_f = sigma_s (1 - p-(g)), rho_b = sigma_s p-(g).
     Unnormalised asymmetries (``asymmetry=True``, Eq. 34): tau_f g and -rho_b g."""
-    from .hg import backscatter_fraction
-
     sb = sigma_s * backscatter_fraction(ops, g)
     sf = sigma_s - sb
     if asymmetry:

@@ -43,7 +43,7 @@ from . import hg
 from .adding_doubling import COS_FLOOR, Lobe, UnsupportedStack, layer_params
 from .diffuse_transport import DiffuseUp, diffuse_transmittance
 from .fgd import fgd_dielectric, tir_fraction
-from .homogeneous_medium import kubelka_munk, slab
+from .homogeneous_medium import slab
 from .rgb import RGB
 from .variance import rms_alpha
 
@@ -166,7 +166,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     E, G = _empty(n), _empty(n)
     lobes: list[Lobe] = []
 
-    def add(ce: Component, cg: Component, label: str):
+    def add(ce: Component, cg: Component):
         nonlocal E, G
         E_new, G_new = _stack(ops, E, ce, n), _stack(ops, G, cg, n)
         for fam in range(n):
@@ -196,13 +196,13 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), _diag(RGB.splat(ru), n), _diag(RGB.splat(tu), n))
         cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n),
                        _diag(RGB.splat(ru * g_r), n), _diag(RGB.splat(tu * g_t), n))
-        add(ce, cg, f"coat {index}")
+        add(ce, cg)
         if diffuse_up is not None:
             diffuse_up.add_interface(ops, n12)
         cti, sx, sy, g1, n_above = ctt, sx / n12, sy / n12, g1_new, p["ior"]
         if "thickness" in p:
             ce, cg, t_d, r_d = _medium(ops, p, cti, n)
-            add(ce, cg, f"coat {index} medium")
+            add(ce, cg)
             if diffuse_up is not None:
                 diffuse_up.add_medium(ops, t_d, r_d)
 
@@ -223,13 +223,13 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     if resp.transmittance is None:
         ce = Component(_diag(resp.reflectance, n), {}, {}, {})
         cg = Component(_diag(resp.reflectance * g_r, n), {}, {}, {})
-        add(ce, cg, "base")
+        add(ce, cg)
     else:
         R, T, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
         ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), {}, {})
         cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n), {}, {})
-        add(ce, cg, "base")
+        add(ce, cg)
         # Eq. 25: everything crossing the base, every family, leaves as one transmission lobe
         e = E.td[(P, P)]
         gt = G.td[(P, P)]
@@ -284,10 +284,7 @@ def _medium(ops, p, mu, n: int):
         rt = {(B, P): r, (B, F): r, (F, B): r}
         return Component(rt, td, dict(rt), dict(td))
 
-    # diffuse light from a Lambertian base: mean path twice the thickness
-    from .hg import backscatter_fraction
-
-    kd = [kubelka_munk(ops, st - ss * (1.0 - backscatter_fraction(ops, g)), ss * backscatter_fraction(ops, g),
-                       2.0 * p["thickness"]) for st, ss in zip(sig_t, sig_s)]
-    r_d, t_d = RGB(*(x[0] for x in kd)), RGB(*(x[1] for x in kd))
+    # diffuse light from a Lambertian base: Kubelka-Munk over twice the thickness
+    kd = [slab(ops, st, ss, g, 2.0 * p["thickness"]) for st, ss in zip(sig_t, sig_s)]
+    r_d, t_d = RGB(*(x[1] for x in kd)), RGB(*(x[2] for x in kd))
     return comp(e), comp(a), t_d, r_d
