@@ -63,16 +63,13 @@ def test_script_node_gets_sockets_and_keeps_the_source():
     assert node.script.as_string().rstrip() == src.rstrip()  # a failed compile leaves the node as it was
 
 
-@pytest.mark.parametrize("case", ["varnished_wood", "fog_g03"])
+@pytest.mark.parametrize("case", ["varnished_wood", "fog_g03", "rough_glass_plate"])
 def test_new_lobe_kinds_compile(case):
-    """A diffuse base (diffuse closure) and a scattering medium (tm6: back-scatter lobes about the
-    view direction) trace to shaders Cycles compiles, with those closures in them."""
+    """A diffuse base (diffuse closure), a scattering medium (tm6: back-scatter lobes about the
+    view direction) and a glass plate (a refracting closure) trace to shaders Cycles compiles,
+    with those closures in them."""
     src = emit_osl(suite.load(case))
     assert ("diffuse(Normal)" in src) == (case == "varnished_wood")
     assert ('microfacet("ggx", V,' in src) == (case == "fog_g03")
+    assert (", 100.0, 1)" in src) == (case == "rough_glass_plate")
     osl_compile.compile_source(src, f"lamella_{case}")
-
-
-def test_transmission_lobe_has_no_closure_yet():
-    with pytest.raises(NotImplementedError, match="transmission lobe"):
-        emit_osl(suite.load("rough_glass_plate"))

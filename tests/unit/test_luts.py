@@ -16,7 +16,7 @@ def test_stored_tables_have_their_shape_and_range(name):
     t = luts.table(name)
     assert t.shape == luts.SPECS[name].shape and t.dtype == np.float32
     assert np.isfinite(t).all()
-    if name in ("ggx_albedo", "tir"):
+    if name in ("ggx_albedo", "tir", "ggx_refract_albedo"):
         assert (t >= 0).all() and (t <= 1).all()
 
 
@@ -25,6 +25,33 @@ def test_stored_tables_match_the_generator():
     fresh = luts.generate_ggx_albedo()
     for name, arr in fresh.items():
         np.testing.assert_allclose(luts.table(name), arr, atol=2e-6)
+
+
+def test_stored_refraction_table_matches_the_generator():
+    np.testing.assert_allclose(luts.table("ggx_refract_albedo"), luts.generate_refract_albedo(), atol=2e-6)
+
+
+@pytest.mark.parametrize("eta,alpha,degrees", [(1.0, 0.05, 0.0), (1.0, 0.2, 0.0), (1.0, 0.45, 0.0),
+                                               (1.5, 0.03, 45.0), (1.33, 0.03, 70.0)])
+def test_transmission_lobe_carries_its_weight(eta, alpha, degrees):
+    """The sampled transmittance in ``ggx_refract_albedo`` normalises the transmission lobe kind's
+    closure as integrated by quadrature of its pointwise value (a different estimator): the lobe
+    transmits its weight, up to what falls above the horizon (nothing for these lobes), also with
+    the closure normal tilted away from the view (mu' < 1)."""
+    from lamella.core import lobe_kinds
+    from lamella.core.models.adding_doubling import Lobe
+
+    ops = NumpyOps()
+    kind = lobe_kinds.kind("transmission")
+    th = np.radians(degrees)
+    wi = (np.sin(th), 0.0, np.cos(th))
+    lobe = Lobe(None, alpha, alpha, 0.0, "transmission", eta)
+    nt, nphi = 1200, 480
+    t, p = np.meshgrid((np.arange(nt) + 0.5) / nt * np.pi / 2 + np.pi / 2, (np.arange(nphi) + 0.5) / nphi * 2 * np.pi,
+                       indexing="ij")
+    wo = (np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t))
+    energy = (kind.closure_cos(ops, lobe, wi, wo) * np.sin(t)).sum() * (np.pi / 2 / nt) * (2 * np.pi / nphi)
+    assert abs(energy * kind.scale(ops, lobe, wi) - 1.0) < 3e-3
 
 
 def test_tir_column_at_eta_one_is_exactly_one():

@@ -20,10 +20,13 @@ def _bpy():
     return bpy
 
 
-def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: int = 0):
+def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: int = 0, open_back: bool = False):
     """The canonical scene, unbiased: no denoiser, no adaptive sampling, no glossy filter and no
     sample clamping, so that renders converge to the same image at any spp and differences
-    between engines are the materials' alone."""
+    between engines are the materials' alone. ``open_back`` removes the half of the sphere the
+    camera does not see, so a light behind it reaches the front through transmission lobes:
+    Cycles' shadow rays stop at the far side of a closed mesh whose shader has no transparent
+    closure, whatever its refracting closures would let through."""
     bpy = _bpy()
     from mathutils import Vector
 
@@ -47,6 +50,14 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0, location=(0, 0, 0))
     sphere = bpy.context.object
     bpy.ops.object.shade_smooth()
+    if open_back:
+        import bmesh
+
+        bm = bmesh.new()
+        bm.from_mesh(sphere.data)
+        bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.y > 1e-6], context="VERTS")
+        bm.to_mesh(sphere.data)
+        bm.free()
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     sc.collection.objects.link(cam)
     sc.camera = cam
@@ -125,10 +136,11 @@ def _principled(nt, stack):
 
 def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
                  out: str | Path | None = None, filter_width: float | None = None, seed: int = 0,
-                 thickness: float | None = None):
+                 thickness: float | None = None, open_back: bool = False):
     """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
-    the stack as nested interface spheres (reference_scene) of shell ``thickness``."""
+    the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
+    as in ``build_scene``."""
     import tempfile
 
     from ..core.exr import read_rgba, write_rgba
@@ -136,7 +148,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
 
     bpy = _bpy()
     stack = Stack.coerce(stack)
-    sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed)
+    sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed, open_back=open_back)
     if filter_width is not None:
         sc.cycles.filter_width = filter_width
     if engine == "reference":

@@ -15,8 +15,10 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
+from . import luts
+from .luts import REFRACT_ETA
 from .models.fgd import gd
-from .models.ggx import ggx_lobe_cos
+from .models.ggx import ALPHA_EVAL_MIN, ggx_lobe_cos
 from .models.variance import rms_alpha
 
 GD_FLOOR = 1e-6  # GD is >= 0.2 for every alpha <= 1 at wi.z >= 0; the floor only guards wi.z < 0
@@ -26,13 +28,15 @@ GD_FLOOR = 1e-6  # GD is >= 0.2 for every alpha <= 1 at wi.z >= 0; the floor onl
 class LobeKind:
     """``closure_cos(ops, lobe, wi, wo)``: f cos of the closure of weight 1 (backend values);
     ``scale(ops, lobe, wi)``: the normaliser; ``side``: ``"reflected"`` or ``"transmitted"``;
-    ``osl(ax, ay, cos_r, sin_r)``: the Cycles OSL closure call, given printed expressions of the
-    lobe's roughness and of its axes' rotation; ``description``: one line for docs and tables."""
+    ``args(ops, lobe, wi)``: the closure's arguments as named backend values (roughness, axes,
+    normal), which a backend prints or wires; ``osl(a)``: the Cycles OSL closure call, given the
+    printed expressions ``a`` of those arguments; ``description``: one line for docs and tables."""
 
     name: str
     side: str
     closure_cos: Callable
     scale: Callable
+    args: Callable
     osl: Callable
     description: str
 
@@ -53,10 +57,14 @@ def _osl_tangent(c: str, s: str) -> str:
     return "Tn" if (c, s) == ("1.0", "0.0") else f"normalize({c} * Tn + {s} * Bn)"
 
 
-def _osl_ggx_reflection(ax: str, ay: str, c: str, s: str) -> str:
+def _ggx_args(ops, lobe, wi):
+    return {"ax": lobe.alpha_x, "ay": lobe.alpha_y, "cos": ops.cos(lobe.rotation), "sin": ops.sin(lobe.rotation)}
+
+
+def _osl_ggx_reflection(a: dict) -> str:
     """Cycles' single-scattering GGX reflection without Fresnel (refract = 0) on the lobe's axes:
     the shading tangent turned by the lobe rotation about the normal."""
-    return f'microfacet("ggx", Normal, {_osl_tangent(c, s)}, {ax}, {ay}, 1.0, 0)'
+    return f'microfacet("ggx", Normal, {_osl_tangent(a["cos"], a["sin"])}, {a["ax"]}, {a["ay"]}, 1.0, 0)'
 
 
 def _backscatter_closure_cos(ops, lobe, wi, wo):
@@ -74,9 +82,13 @@ def _backscatter_scale(ops, lobe, wi):
     return 1.0 / ops.max(gd(ops, 1.0, lobe.alpha_x), GD_FLOOR)
 
 
-def _osl_backscatter(ax: str, ay: str, c: str, s: str) -> str:
+def _backscatter_args(ops, lobe, wi):
+    return {"alpha": lobe.alpha_x}
+
+
+def _osl_backscatter(a: dict) -> str:
     """Cycles' GGX reflection about the view direction V (Cycles' I points toward the viewer)."""
-    return f'microfacet("ggx", V, {ax}, 1.0, 0)'
+    return f'microfacet("ggx", V, {a["alpha"]}, 1.0, 0)'
 
 
 def _refracted_mirror(ops, lobe, wi):
@@ -89,27 +101,80 @@ def _refracted_mirror(ops, lobe, wi):
     return tx, ty, ops.sqrt(ops.max(1.0 - tx * tx - ty * ty, 0.0))
 
 
+def _transmission_alpha(ops, lobe):
+    """The closure roughness whose refraction lobe spreads like a GGX reflection lobe of the
+    model's (reflection-equivalent) roughness: alpha_w = 2 eta alpha / (eta - 1), Belcour 2018's
+    fake-refraction scale at normal incidence solved for the Walter roughness, at eta = REFRACT_ETA.
+    Cycles' refracting closure is isotropic (it ignores alpha_y) and clamps alpha to 1, so the lobe
+    takes the RMS roughness and is too narrow beyond a reflection-equivalent alpha of 0.495."""
+    k = 2.0 * REFRACT_ETA / (REFRACT_ETA - 1.0)
+    return ops.clamp(k * rms_alpha(ops, lobe.alpha_x, lobe.alpha_y), ALPHA_EVAL_MIN, 1.0)
+
+
+def _transmission_normal(ops, lobe, wi):
+    """The closure normal n that refracts wi, at index REFRACT_ETA, exactly into the transmitted
+    mean direction t = -r (r = ``_refracted_mirror``): Walter et al. 2007 Eq. 16's generalised half
+    vector, n = -(wi + eta t) / |wi + eta t| = (eta r - wi) / |eta r - wi|. n = wi for a plate
+    (eta = 1); n . wi > 0 always, since r . wi > 0."""
+    rx, ry, rz = _refracted_mirror(ops, lobe, wi)
+    nx, ny, nz = REFRACT_ETA * rx - wi[0], REFRACT_ETA * ry - wi[1], REFRACT_ETA * rz - wi[2]
+    inv = 1.0 / ops.sqrt(ops.max(nx * nx + ny * ny + nz * nz, 1e-30))
+    return nx * inv, ny * inv, nz * inv
+
+
 def _transmission_closure_cos(ops, lobe, wi, wo):
-    """Belcour 2018's rough refraction as a mirrored rough reflection (restated in
-    Randrianandrasana et al. 2021, Section 3.2): a GGX lobe about the refracted mean direction,
-    the reflection lobe of ``_refracted_mirror(wi)`` mirrored through the surface; zero above it.
-    Exact in energy by construction (GD-normalised at cos_t), symmetric about the refracted
-    direction, and well defined for a plate (eta = 1: straight through)."""
-    c, s = ops.cos(lobe.rotation), ops.sin(lobe.rotation)
-    wm = (wo[0], wo[1], -wo[2])
-    value = ggx_lobe_cos(ops, _refracted_mirror(ops, lobe, wi), wm, lobe.alpha_x, lobe.alpha_y, c, s)
-    return ops.select(wo[2] < 0.0, value, 0.0)
+    """Cycles' refracting GGX closure ``microfacet("ggx", n, alpha_w, REFRACT_ETA, 1)`` (isotropic
+    Walter et al. 2007 BTDF, Eqs. 16, 21 and 33, with Fresnel replaced by 1 and the height-correlated
+    Smith G2; ``bsdf_microfacet_eval`` of Cycles 5.0), evaluated as Cycles does: with h = -(eta wo
+    + wi) / |eta wo + wi|, c_x = n . x,
+        f cos = D(h) eta^2 |h.wi| |h.wo| / |eta wo + wi|^2 * G2 / c_i,
+    G2 / c_i = 2 |c_o| / (|c_o| s_i + c_i s_o), s = sqrt(c^2 + alpha^2 (1 - c^2)) (no division by a
+    cosine). Nonzero only for c_i > 0, c_o < 0, and wo below the shading normal (Cycles'
+    bump-shadowing test when the closure normal is not the shading normal). At a large index the
+    refraction hardly bends, so this is a GGX lobe about -n: the transmitted direction, tilted by
+    the closure normal ``_transmission_normal`` (Belcour 2018's rough refraction as a lobe about the
+    refracted mean)."""
+    n = _transmission_normal(ops, lobe, wi)
+    a = _transmission_alpha(ops, lobe)
+    a2 = a * a
+    eta = REFRACT_ETA
+    hx, hy, hz = -(eta * wo[0] + wi[0]), -(eta * wo[1] + wi[1]), -(eta * wo[2] + wi[2])
+    l2 = hx * hx + hy * hy + hz * hz  # >= (eta - 1)^2 for unit vectors
+    h_i = hx * wi[0] + hy * wi[1] + hz * wi[2]
+    h_o = hx * wo[0] + hy * wo[1] + hz * wo[2]
+    h_n = hx * n[0] + hy * n[1] + hz * n[2]
+    c2 = ops.min(h_n * h_n / l2, 1.0)
+    t = 1.0 - c2 * (1.0 - a2)
+    d = a2 / (math.pi * t * t)
+    c_i = wi[0] * n[0] + wi[1] * n[1] + wi[2] * n[2]
+    c_o = wo[0] * n[0] + wo[1] * n[1] + wo[2] * n[2]
+    abs_o = ops.abs(c_o)
+    s_i = ops.sqrt(c_i * c_i + a2 * (1.0 - c_i * c_i))
+    s_o = ops.sqrt(c_o * c_o + a2 * (1.0 - c_o * c_o))
+    g2_over_ci = 2.0 * abs_o / ops.max(abs_o * s_i + c_i * s_o, 1e-30)
+    value = d * (eta * eta) * ops.abs(h_i * h_o) / (l2 * l2) * g2_over_ci
+    return ops.select(wo[2] < 0.0, ops.select(c_o < 0.0, value, 0.0), 0.0)
 
 
 def _transmission_scale(ops, lobe, wi):
-    return 1.0 / ops.max(gd(ops, _refracted_mirror(ops, lobe, wi)[2], rms_alpha(ops, lobe.alpha_x, lobe.alpha_y)),
-                         GD_FLOOR)
+    """1 / the closure's directional transmittance at weight 1 (``ggx_refract_albedo``)."""
+    n = _transmission_normal(ops, lobe, wi)
+    mu = wi[0] * n[0] + wi[1] * n[1] + wi[2] * n[2]
+    a = _transmission_alpha(ops, lobe)
+    t = ops.lut("ggx_refract_albedo", luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, a))
+    return 1.0 / ops.max(t, GD_FLOOR)
 
 
-def _osl_transmission_unavailable(*args) -> str:
-    raise NotImplementedError("the transmission lobe of a dielectric base has no Cycles closure yet: Cycles' "
-                              "refracting microfacet closure is a Walter BTDF, which does not reproduce the "
-                              "mirrored-reflection lobe (and degenerates for a plate, eta = 1)")
+def _transmission_args(ops, lobe, wi):
+    n = _transmission_normal(ops, lobe, wi)
+    return {"alpha": _transmission_alpha(ops, lobe), "nx": n[0], "ny": n[1], "nz": n[2]}
+
+
+def _osl_transmission(a: dict) -> str:
+    """Cycles' refracting GGX closure (refract = 1) at index REFRACT_ETA about the closure normal
+    given in the local frame."""
+    n = f'normalize({a["nx"]} * Tn + {a["ny"]} * Bn + {a["nz"]} * Normal)'
+    return f'microfacet("ggx", {n}, {a["alpha"]}, {REFRACT_ETA!r}, 1)'
 
 
 def _lambert_closure_cos(ops, lobe, wi, wo):
@@ -120,19 +185,24 @@ def _unit_scale(ops, lobe, wi):
     return 1.0
 
 
-def _osl_diffuse(ax: str, ay: str, c: str, s: str) -> str:
+def _no_args(ops, lobe, wi):
+    return {}
+
+
+def _osl_diffuse(a: dict) -> str:
     return "diffuse(Normal)"
 
 
 KINDS: dict[str, LobeKind] = {k.name: k for k in (
-    LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _osl_ggx_reflection,
+    LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _ggx_args, _osl_ggx_reflection,
              "GGX reflection about the mirror direction, GD-normalised"),
-    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _osl_diffuse,
+    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args, _osl_diffuse,
              "Lambertian reflection (the light a diffuse base sends back up)"),
-    LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _osl_backscatter,
+    LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _backscatter_args,
+             _osl_backscatter,
              "GGX reflection about the incident direction (light back-scattered by a medium)"),
-    LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale,
-             _osl_transmission_unavailable, "GGX lobe about the refracted direction, below a dielectric base"),
+    LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale, _transmission_args,
+             _osl_transmission, "GGX refraction lobe about the transmitted direction, below a dielectric base"),
 )}
 
 

@@ -12,6 +12,11 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
   run time) and dielectrics (either side, with TIR) share one small table. Measured against
   direct integration it beats both an F82/Schlick basis (7 % off for gold's blue at 60 deg) and a
   3D (cos, alpha, eta) dielectric table (errors up to 0.9 near eta = 1): see ``bench/luts.md``.
+``ggx_refract_albedo`` (2D, cos_i x alpha): the directional albedo of Cycles' refracting GGX closure
+  (``microfacet("ggx", N, alpha, REFRACT_ETA, 1)``: Walter 2007's BTDF without Fresnel) at the
+  large index REFRACT_ETA, the normaliser of the transmission lobe kind (``lobe_kinds``). With
+  such an index a refraction barely bends, so the closure is a GGX lobe about -N whatever the
+  view: aimed by its normal at any transmitted direction.
 ``tir`` (3D, u x alpha x eta): Belcour 2018's total-internal-reflection correction: the fraction
   of a GGX reflection lobe of roughness alpha, whose mirror direction makes sin(theta) = u * eta
   with the normal, that lies inside the escape cone sin(theta) < eta (eta = n_outside / n_inside
@@ -32,6 +37,7 @@ import numpy as np
 DATA_DIR = Path(__file__).resolve().parent.parent / "data" / "luts"
 
 TIR_ETA_MIN = 0.2  # escape-cone range of the TIR table (inside index up to 5)
+REFRACT_ETA = 100.0  # the index of the transmission lobe's refracting closure (see ggx_refract_albedo)
 
 
 # ---------------------------------------------------------------- axis maps (model side)
@@ -77,6 +83,7 @@ SPECS = {
     "ggx_albedo": TableSpec("ggx_albedo", "ggx_albedo.exr", "Y", (N_MU, N_ALPHA)),
     "fresnel_hat_delta": TableSpec("fresnel_hat_delta", "fresnel_hat_delta.exr", "Y", (N_MU, N_ALPHA, N_HAT)),
     "tir": TableSpec("tir", "tir.exr", "Y", (N_TIR_U, N_ALPHA, N_TIR_ETA)),
+    "ggx_refract_albedo": TableSpec("ggx_refract_albedo", "ggx_refract_albedo.exr", "Y", (N_MU, N_ALPHA)),
 }
 
 # 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:
@@ -253,7 +260,35 @@ def generate_tir(n_samples: int = 160) -> np.ndarray:
     return out
 
 
+def generate_refract_albedo(n_samples: int = 160, eta: float = REFRACT_ETA) -> np.ndarray:
+    """What Cycles' refracting GGX closure (isotropic, no Fresnel) transmits at weight 1: its
+    sampling weight E[(1 + Lambda_i) / (1 + Lambda_i + Lambda_o)] over visible normals, the
+    refracted direction wo = refract(wi, h, 1 / eta) kept when it lies below the closure's normal
+    (Cycles' ``bsdf_microfacet_sample``; Walter et al. 2007 Eq. 40 for the refraction)."""
+    from .reference import sample_vndf, smith_lambda
+
+    mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
+    alphas = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)
+    u1, u2, wt = _stratified(n_samples)
+    out = np.ones((N_MU, N_ALPHA))
+    for i, m in enumerate(mu):
+        wi = np.array([math.sqrt(max(1.0 - m * m, 0.0)), 0.0, m])
+        for j, a in enumerate(alphas):
+            wis = np.broadcast_to(wi, (u1.size, 3))
+            h = sample_vndf(wis, np.full(u1.size, a), np.full(u1.size, a), u1, u2)
+            c = h @ wi
+            e2 = eta * eta - (1.0 - c * c)
+            wo = (c / eta - np.sqrt(np.maximum(e2, 0.0)) / eta)[:, None] * h - wi / eta
+            lam_i = smith_lambda(wis, a, a)
+            lam_o = smith_lambda(wo, a, a)
+            w = np.where((e2 > 0) & (wo[:, 2] < 0), (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+            out[i, j] = np.mean(w * wt)
+    out[:, 0] = 1.0  # alpha = 0: a delta straight through
+    return out
+
+
 def generate_all() -> dict[str, np.ndarray]:
     tables = generate_ggx_albedo()
     tables["tir"] = generate_tir()
+    tables["ggx_refract_albedo"] = generate_refract_albedo()
     return tables

@@ -130,10 +130,12 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
     t.set_scope("closures")
     outputs, closures = [], []
     for lobe in lobes:
-        scale = lobe_kinds.kind(lobe.kind).scale(t, lobe, wi)
+        kind = lobe_kinds.kind(lobe.kind)
+        scale = kind.scale(t, lobe, wi)
         w = [c * scale for c in lobe.weight]
-        closures.append((w, lobe.alpha_x, lobe.alpha_y, t.cos(lobe.rotation), t.sin(lobe.rotation)))
-        outputs.extend([*w, lobe.alpha_x, lobe.alpha_y, closures[-1][3], closures[-1][4]])
+        args = kind.args(t, lobe, wi)
+        closures.append((w, args))
+        outputs.extend([*w, *args.values()])
     p = _Printer(t)
     sections = {"setup": "incident direction", "lobes": "lobes (energies, roughness, axes)",
                 "closures": "closure weights: energy x the lobe kind's normaliser (1 / GD for GGX)",
@@ -161,13 +163,14 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
         *p.lines,
         "    BSDF = 0;",
     ]
-    for k, ((w, ax, ay, c, s), lobe) in enumerate(zip(closures, lobes)):
+    for k, ((w, args), lobe) in enumerate(zip(closures, lobes)):
         r, g, b = (p.ref(x) for x in w)
+        closure = lobe_kinds.kind(lobe.kind).osl({name: p.ref(x) for name, x in args.items()})
         body += [
             f"    // lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
             + (" and everything it sends back up" if lobe.kind == "reflection" else ""),
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
-            f"        BSDF += color({r}, {g}, {b}) * {lobe_kinds.kind(lobe.kind).osl(*(p.ref(x) for x in (ax, ay, c, s)))};",
+            f"        BSDF += color({r}, {g}, {b}) * {closure};",
         ]
     header = (OSL_DIR / LUT_HEADER).read_text()
     desc = stack.to_json(indent=None)
