@@ -72,13 +72,20 @@ def test_osl_transmission_equals_numpy(case):
     _check(_load(case), SUN_BEHIND, open_back=True)
 
 
-def _check(stack, sun, open_back):
-    px, _ = render_stack(stack, "sphere-sun", sun_dir=sun, res=RES, spp=4, filter_width=0.01, open_back=open_back)
+@pytest.mark.parametrize("case", ["gold_coated", "tinted_varnish"])
+def test_osl_endf_equals_numpy(case):
+    """The thin-layer model (ENDF lobes as GGX closures) renders as it evaluates."""
+    _check(_load(case), SUN, open_back=False, model="endf")
+
+
+def _check(stack, sun, open_back, model="auto"):
+    px, _ = render_stack(stack, "sphere-sun", sun_dir=sun, res=RES, spp=4, filter_width=0.01, open_back=open_back,
+                         model=model)
     assert np.isfinite(px).all() and (px >= 0).all()
     hit, wi, wo = pixel_frames(RES, sun)
     facing = wo[..., 2] > 0.05 if not open_back else wo[..., 2] < -0.05
     lit = hit & facing & (wi[..., 2] > 0.05)
-    f = lc.evaluate(stack, wi[lit], wo[lit]) * 3.0  # sun strength 3 = irradiance
+    f = lc.evaluate(stack, wi[lit], wo[lit], model) * 3.0  # sun strength 3 = irradiance
     g = px[..., :3][lit]
     peak = f.max()
     core = (wi[lit][:, 2] > 0.5)

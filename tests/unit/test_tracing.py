@@ -134,9 +134,10 @@ def test_isotropic_stack_traces_without_anisotropy_code(model):
 
 @pytest.mark.parametrize("case,model", [("fog_g03", "tm6"), ("milky_coat_d2", "tm6"), ("varnished_wood", "auto"),
                                         ("varnished_wood", "tm2"), ("rough_glass_plate", "auto"),
-                                        ("rough_glass_plate", "tm2")])
+                                        ("rough_glass_plate", "tm2"), ("gold_coated", "endf"),
+                                        ("rough_glass_plate", "endf")])
 def test_media_and_new_bases_trace_equal_to_numpy(case, model):
-    """The transfer-matrix models, the diffuse base and the transmission lobe trace like the rest:
+    """The transfer-matrix and ENDF models, the diffuse base and the transmission lobe trace like the rest:
     a finite graph, equal to the numpy backend (lower-hemisphere wo for the glass base)."""
     from lamella.core import suite
     from lamella.core.models import resolve

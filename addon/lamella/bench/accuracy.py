@@ -18,7 +18,7 @@ from ..core.metrics import albedo_error, relative_l1
 from ..core.models import UnsupportedStack
 from . import BENCH_DIR, REFERENCE_DIR
 
-MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "auto")
+MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "endf", "auto")
 
 
 def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, seed: int = 1,

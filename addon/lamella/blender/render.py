@@ -89,7 +89,7 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     return sc, sphere
 
 
-def assign_material(sphere, stack, engine: str):
+def assign_material(sphere, stack, engine: str, model: str = "auto"):
     bpy = _bpy()
     mat = bpy.data.materials.new("lamella")
     sphere.data.materials.append(mat)
@@ -102,7 +102,7 @@ def assign_material(sphere, stack, engine: str):
 
         node = nt.nodes.new("ShaderNodeScript")
         name = f"lamella_{stack.name or 'stack'}.osl"
-        assign_script(node, bpy.data.texts.new(name), emit_osl(stack), name)
+        assign_script(node, bpy.data.texts.new(name), emit_osl(stack, model), name)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
@@ -136,11 +136,11 @@ def _principled(nt, stack):
 
 def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
                  out: str | Path | None = None, filter_width: float | None = None, seed: int = 0,
-                 thickness: float | None = None, open_back: bool = False):
+                 thickness: float | None = None, open_back: bool = False, model: str = "auto"):
     """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
-    as in ``build_scene``."""
+    as in ``build_scene``; ``model`` the layered model of the cycles-osl shader."""
     import tempfile
 
     from ..core.exr import read_rgba, write_rgba
@@ -156,7 +156,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
 
         build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS)
     else:
-        assign_material(sphere, stack, engine)
+        assign_material(sphere, stack, engine, model)
     with tempfile.TemporaryDirectory() as tmp:
         sc.render.image_settings.file_format = "OPEN_EXR"
         sc.render.image_settings.color_depth = "32"

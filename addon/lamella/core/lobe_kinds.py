@@ -111,6 +111,12 @@ def _transmission_alpha(ops, lobe):
     return ops.clamp(k * rms_alpha(ops, lobe.alpha_x, lobe.alpha_y), ALPHA_EVAL_MIN, 1.0)
 
 
+def transmission_alpha_of_spread(ops, closure_alpha):
+    """The (reflection-equivalent) lobe roughness whose closure roughness is ``closure_alpha``:
+    the inverse of ``_transmission_alpha``, for models that know the transmitted spread itself."""
+    return closure_alpha * ((REFRACT_ETA - 1.0) / (2.0 * REFRACT_ETA))
+
+
 def _transmission_normal(ops, lobe, wi):
     """The closure normal n that refracts wi, at index REFRACT_ETA, exactly into the transmitted
     mean direction t = -r (r = ``_refracted_mirror``): Walter et al. 2007 Eq. 16's generalised half

@@ -8,6 +8,7 @@ the lobe-kind table (``lamella.core.lobe_kinds``).
 from __future__ import annotations
 
 from .adding_doubling import Lobe, UnsupportedStack, Variant
+from .endf import ENDF
 from .rgb import RGB
 from .transfer_matrix import TransferMatrix
 from .roughness import MAPPINGS
@@ -19,6 +20,7 @@ MODELS: dict = {
     "yamaguchi2019": Variant("yamaguchi2019", CovarianceVariance, MAPPINGS["belcour"]),
     "tm2": TransferMatrix("tm2", six_flux=False),
     "tm6": TransferMatrix("tm6", six_flux=True),
+    "endf": ENDF(),
 }
 VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
 

@@ -1,0 +1,156 @@
+"""The extended normal distribution function (ENDF) model of a thin transparent layer: one coat
+over a conductor or a dielectric base (the ENDF paper: von Mises-Fisher NDFs, Eqs. 5-6; spherical
+warping, Eqs. 12-13; joint spherical warping as a vMF convolution, Eqs. 17-22; the one-bounce
+subsurface lobe, Eq. 26; absorption, Eq. 27).
+
+Lobes, in the order of the other models:
+
+* surface reflection of the coat's top interface: its own GGX NDF (roughness alpha_1);
+* the one-bounce subsurface lobe: light refracted in through the top interface (NDF m1),
+  reflected by the base (m2) and refracted out (m1 again). Eq. 26 writes the exit direction's
+  distribution as the convolution of the three NDFs, each carried into the exit direction's space
+  by the Jacobian chain of its path; a convolution of vMFs is the vMF whose mean resultant length
+  is the product of theirs (Eq. 18: kappa = A3^-1(prod A3(kappa_k))). Eq. 19 turns that
+  distribution of directions back into an NDF (the ENDF), kappa_m = 4 |o.n| kappa;
+* through a dielectric base, the transmitted lobe: the same convolution along the two refractions
+  (the paper's thin-slab case, Eqs. 23-24).
+
+With every mean normal equal to n and mean directions the specular ones, the Jacobians at the
+mean directions (Walter et al. 2007 Eqs. 14 and 16-17; the ENDF paper's Eqs. 12-13 and 21) are, for
+incidence cosine mu, refracted cosine c inside the coat of index eta:
+
+* m1 on the way in, seen at the exit: J = mu / (mu - eta c)^2 (refraction in, mirror, refraction
+  out: eta^2 c / (mu - eta c)^2 * 1 * mu / (eta^2 c));
+* m2 at the base: J = mu / (4 eta^2 c^2) (mirror 1 / (4 c), refraction out mu / (eta^2 c));
+* m1 on the way out: J = mu / (eta c - mu)^2.
+
+Each concentration is kappa_k = J_k kappa_i. The code carries v = 1 / kappa (so a smooth interface
+is v = 0, not an infinite kappa) and u = 1 - A3(kappa), where the product of mean resultant lengths
+becomes 1 - prod(1 - u_k), expanded so that small u lose no digits in float32. A3 at small kappa
+(coth kappa - 1 / kappa cancels catastrophically) uses its series.
+
+Energies are those of the adding equations (``adding_doubling``, Belcour 2018's statistics): the
+paper's remaining terms M_t M_r M_t evaluated at the mean directions (Section 5.1) become the
+pre-integrated FGD of each interface, the absorption of Eq. 27 is the same exp(-sigma_a d (1/c +
+1/c)), and the multi-bounce paths (Section 5.2: weak, and diffuse-like) are added to the
+one-bounce lobe's energy as the geometric series of internal reflections instead of being dropped.
+
+From vMF to Cycles closures: a vMF of concentration kappa is, near its mean, the Gaussian
+exp(-kappa theta^2 / 2), Beckmann's exp(-tan^2 theta / alpha^2) at alpha^2 = 2 / kappa; the model
+reads each GGX interface as the vMF of kappa = 2 / alpha^2 and prints every ENDF as a GGX
+reflection closure of alpha = sqrt(2 / kappa) (the reflection lobe kind), a transmitted
+distribution as the transmission lobe kind of the same spread. The vMF lobes are isotropic: the
+model refuses anisotropic interfaces.
+"""
+from __future__ import annotations
+
+from .adding_doubling import Lobe, UnsupportedStack, layer_params
+
+A3_SERIES_KAPPA = 0.5  # below this concentration A3 is evaluated by its series
+V_MAX = 1e4  # largest 1 / kappa carried (a uniform distribution is 1 / kappa -> infinity)
+
+
+def one_minus_a3(ops, v):
+    """u = 1 - A3(kappa) for v = 1 / kappa >= 0, A3(kappa) = coth(kappa) - 1 / kappa the mean
+    resultant length of a vMF on the sphere (ENDF paper, after Eq. 6). Closed form in decaying
+    exponentials, u = v - 2 q / (1 - q), q = exp(-2 kappa) (exactly v for a narrow lobe); the series
+    A3 = kappa/3 - kappa^3/45 + 2 kappa^5/945 - kappa^7/4725 below kappa = A3_SERIES_KAPPA."""
+    v = ops.clamp(v, 0.0, V_MAX)
+    kappa = 1.0 / ops.max(v, 1e-30)
+    q = ops.exp(-2.0 * ops.min(kappa, 1e4))
+    closed = v - 2.0 * q / (1.0 - q)
+    k = ops.min(kappa, A3_SERIES_KAPPA)
+    k2 = k * k
+    series = 1.0 - k * (1.0 / 3.0 - k2 * (1.0 / 45.0 - k2 * (2.0 / 945.0 - k2 * (1.0 / 4725.0))))
+    return ops.select(kappa < A3_SERIES_KAPPA, series, closed)
+
+
+def v_from_one_minus_a3(ops, u):
+    """The inverse of ``one_minus_a3``: v = 1 / A3^-1(1 - u). Banerjee et al. 2005's
+    approximation kappa = r (3 - r^2) / (1 - r^2) at r = 1 - u (written in u, no cancellation),
+    then one Newton step on the closed form, which makes it exact to O(u^3) for narrow lobes."""
+    u = ops.clamp(u, 0.0, 1.0 - 1e-7)
+    r = 1.0 - u
+    v0 = u * (2.0 - u) / (r * (3.0 - r * r))
+    # Newton on u(v) = v - 2 q / (1 - q), q = exp(-2 / v): du/dv = 1 - 4 q / (v^2 (1 - q)^2)
+    kappa = 1.0 / ops.max(v0, 1e-30)
+    q = ops.exp(-2.0 * ops.min(kappa, 1e4))
+    f = v0 - 2.0 * q / (1.0 - q) - u
+    df = 1.0 - 4.0 * q * kappa * kappa / ((1.0 - q) * (1.0 - q))
+    refined = v0 - f / ops.max(df, 0.5)
+    return ops.select(kappa > 2.0, ops.max(refined, 0.0), v0)
+
+
+def convolve(ops, *vs):
+    """v of the convolution of vMFs of 1 / kappa = vs (Eq. 18: A3 of the result is the product
+    of the A3), through 1 - prod(1 - u_k) = sum u_k - sum u_j u_k + ... without cancellation."""
+    total = 0.0
+    for v in vs:
+        u = one_minus_a3(ops, v)
+        total = total + u - total * u  # 1 - (1 - total)(1 - u)
+    return v_from_one_minus_a3(ops, total)
+
+
+def alpha_to_v(ops, alpha):
+    """1 / kappa of the vMF read for a GGX interface of roughness alpha: alpha^2 / 2."""
+    return 0.5 * alpha * alpha
+
+
+def v_to_alpha(ops, v):
+    return ops.min(ops.sqrt(2.0 * ops.max(v, 0.0)), 1.0)
+
+
+class ENDF:
+    name = "endf"
+
+    def run(self, ops, stack, wi) -> list[Lobe]:
+        return endf(ops, stack, wi)
+
+
+def check_supported(stack) -> None:
+    if len(stack.coats) != 1:
+        raise UnsupportedStack(f"endf: the thin-layer model has exactly one coat (this stack has {len(stack.coats)})")
+    coat, base = stack.coats[0], stack.base
+    if coat.has_scattering:
+        raise UnsupportedStack("endf: coat 0 scatters (sigma_s > 0); the thin-layer model has no scattering media "
+                               "(tm6 and auto have)")
+    if base.type not in ("conductor", "dielectric"):
+        raise UnsupportedStack(f"endf: the base is {base.type}; the thin-layer model takes a conductor or a dielectric")
+    for where, layer in (("coat 0", coat), ("the base", base)):
+        ax, ay = layer.roughness
+        if ax != ay:
+            raise UnsupportedStack(f"endf: {where} has anisotropic roughness [{ax}, {ay}]; the vMF lobes are "
+                                   "isotropic (yamaguchi2019 and auto follow anisotropy)")
+
+
+def endf(ops, stack, wi) -> list[Lobe]:
+    from . import MODELS
+    from ..lobe_kinds import transmission_alpha_of_spread
+
+    check_supported(stack)
+    lobes = MODELS["belcour2018"].run(ops, stack, wi)  # energies: the adding equations
+    (coat,), base = layer_params(ops, stack)
+    ops.set_scope("endf")
+    mu = ops.clamp(wi[2], 1e-4, 1.0)
+    eta = coat["ior"]
+    c2 = 1.0 - (1.0 - mu * mu) / (eta * eta)
+    c = ops.sqrt(ops.max(c2, 1e-8))  # under total internal reflection the lobes below carry no energy
+    v1, v2 = alpha_to_v(ops, coat["ax"]), alpha_to_v(ops, base["ax"])
+
+    # Eq. 26: the exit direction of the one-bounce path, then Eq. 19 back to an NDF
+    d_in = mu - eta * c
+    v_exit = convolve(ops, v1 * d_in * d_in / mu, v2 * 4.0 * eta * eta * c * c / mu, v1 * d_in * d_in / mu)
+    sub = v_to_alpha(ops, v_exit / (4.0 * mu))
+    out = [Lobe(lobes[0].weight, coat["ax"], coat["ax"], 0.0), Lobe(lobes[1].weight, sub, sub, 0.0)]
+    if len(lobes) > 2:
+        # Eqs. 23-24: through the coat and the substrate (index n2, refracted cosine c_2)
+        n2 = base["ior"]
+        e12 = n2 / eta
+        c2_2 = 1.0 - (1.0 - c * c) / (e12 * e12)
+        cs = ops.sqrt(ops.max(c2_2, 1e-8))
+        d_base = c - e12 * cs
+        v_t = convolve(ops, v1 * d_in * d_in / (n2 * n2 * cs), v2 * d_base * d_base / (e12 * e12 * cs))
+        at = transmission_alpha_of_spread(ops, v_to_alpha(ops, v_t))
+        out.append(Lobe(lobes[2].weight, at, at, 0.0, "transmission", n2))
+    ops.set_scope("lobes")
+    return out
