@@ -54,7 +54,8 @@ def test_no_regression_against_recorded_figures(rows, case):
 
 @pytest.mark.parametrize("case", ["rotated_30", "rotated_60", "rotated_90"])
 def test_yamaguchi_beats_weier_on_rotated_interfaces(rows, case):
-    mean = {m: np.mean([rows[(case, m, wi)]["rel_l1"] for wi in suite.WI_DEGREES]) for m in MODELS}
+    mean = {m: np.mean([rows[(case, m, wi)]["rel_l1"] for wi in suite.WI_DEGREES])
+            for m in ("yamaguchi2019", "weier2020")}
     assert mean["yamaguchi2019"] < mean["weier2020"], mean
 
 
