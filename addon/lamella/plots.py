@@ -14,11 +14,16 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def slice_directions(theta_deg: float, plane: str, n: int = 121) -> tuple[np.ndarray, np.ndarray]:
-    """wo along the incidence plane ("in") or across it through the mirror direction ("perp");
-    returns (signed angle in degrees, wo). In the incidence plane the mirror direction sits at
-    +theta_i."""
+    """wo along the incidence plane ("in") or across it through the mirror direction ("perp"),
+    or along the incidence plane below the surface ("trans", the transmitted side of a dielectric
+    base); returns (signed angle in degrees, wo). In the incidence plane the mirror direction
+    sits at +theta_i; below it, the straight-through direction does."""
     s = np.radians(np.linspace(-89.0, 89.0, n))
     t = math.radians(theta_deg)
+    if plane == "trans":
+        wo = np.stack([-np.sin(s), 0.0 * s, -np.cos(s)], -1)
+        keep = wo[:, 2] < -1e-4
+        return np.degrees(s[keep]), wo[keep]
     if plane == "in":
         wo = np.stack([-np.sin(s), 0.0 * s, np.cos(s)], -1)
     else:
@@ -29,19 +34,28 @@ def slice_directions(theta_deg: float, plane: str, n: int = 121) -> tuple[np.nda
     return np.degrees(s[keep]), wo[keep]
 
 
-def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2019"),
+PLANE_TITLES = {"in": "incidence plane", "perp": "perpendicular plane", "trans": "transmitted, incidence plane"}
+PLANE_AXES = {"in": "θo (deg, mirror at +θi)", "perp": "angle from mirror (deg)",
+              "trans": "θo below (deg, straight through at +θi)"}
+COLORS = {"belcour2018": "tab:blue", "weier2020": "tab:orange", "yamaguchi2019": "tab:green", "tm2": "tab:purple",
+          "tm6": "tab:red", "endf": "tab:brown"}
+
+
+def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2019", "tm6", "endf"),
                thetas=(0.0, 30.0, 60.0, 75.0), spp: int = 512, seed: int = 7, title: str | None = None) -> Path:
+    """Slices of every model that supports the stack against the reference (log scale); a third
+    row of transmitted slices for a dielectric base. Models that refuse the stack are left out."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     stack = Stack.coerce(stack)
-    fig, axes = plt.subplots(2, len(thetas), figsize=(4.2 * len(thetas), 7.0), squeeze=False)
-    colors = {"belcour2018": "tab:blue", "weier2020": "tab:orange", "yamaguchi2019": "tab:green"}
+    planes = ("in", "perp", "trans") if stack.base.type == "dielectric" else ("in", "perp")
+    fig, axes = plt.subplots(len(planes), len(thetas), figsize=(4.2 * len(thetas), 3.5 * len(planes)), squeeze=False)
     for col, th in enumerate(thetas):
         wi = np.array([math.sin(math.radians(th)), 0.0, math.cos(math.radians(th))])
-        for row, plane in enumerate(("in", "perp")):
+        for row, plane in enumerate(planes):
             ax = axes[row, col]
             s, wo = slice_directions(th, plane)
             mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 17 * col + row)
@@ -53,12 +67,12 @@ def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2
                     f = api.evaluate(stack, wi, wo, m) @ LUMA
                 except UnsupportedStack:
                     continue
-                ax.plot(s, f, color=colors.get(m), lw=1.2, ls="--", label=m)
+                ax.plot(s, f, color=COLORS.get(m), lw=1.2, ls="--", label=m)
             ax.set_yscale("log")
             top = max(float(y.max()), 1e-3)
             ax.set_ylim(top * 1e-4, top * 3)
-            ax.set_title(f"θi = {th:g}°, {'incidence plane' if plane == 'in' else 'perpendicular plane'}", fontsize=9)
-            ax.set_xlabel("θo (deg, mirror at +θi)" if plane == "in" else "angle from mirror (deg)")
+            ax.set_title(f"θi = {th:g}°, {PLANE_TITLES[plane]}", fontsize=9)
+            ax.set_xlabel(PLANE_AXES[plane])
             if col == 0:
                 ax.set_ylabel("f · cos θo (luminance)")
     axes[0, 0].legend(fontsize=7, loc="lower left")

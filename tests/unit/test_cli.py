@@ -39,3 +39,13 @@ def test_plot_writes_a_png(tmp_path):
     out = tmp_path / "slices.png"
     assert main(["plot", "gold_coated", "-o", str(out), "--spp", "8", "--wi", "30"]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_of_glass_has_a_transmitted_row(tmp_path):
+    """A dielectric base adds the transmitted slice (below the surface) to the figure."""
+    from matplotlib.image import imread
+
+    out, out_metal = tmp_path / "glass.png", tmp_path / "metal.png"
+    assert main(["plot", "rough_glass_plate", "-o", str(out), "--spp", "8", "--wi", "30"]) == 0
+    assert main(["plot", "gold_coated", "-o", str(out_metal), "--spp", "8", "--wi", "30"]) == 0
+    assert imread(out).shape[0] > 1.4 * imread(out_metal).shape[0]

@@ -30,6 +30,12 @@ def names() -> list[str]:
     return list(descriptions())
 
 
+def pending_descriptions() -> dict[str, str]:
+    """Cases with stored BRDF references that join the suite once their image references exist
+    (``PENDING.json``)."""
+    return json.loads((STACK_DIR / "PENDING.json").read_text())
+
+
 def load(name: str) -> Stack:
     return Stack.from_json((STACK_DIR / f"{name}.json").read_text())
 
