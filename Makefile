@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test bench-accuracy bench-images references image-references luts clean
+.PHONY: setup demo test bench-accuracy bench-images references references-pending image-references luts clean
 
 setup: $(STAMP)
 
@@ -29,6 +29,12 @@ bench-accuracy: setup
 references: setup
 	$(VENV)/bin/lamella references --cases frosted_metal,three_coats,rough_coat_over_mirror --spp 8192
 	$(VENV)/bin/lamella references --cases gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,tinted_varnish,opposing_anisotropy --spp 32768
+
+# BRDF references of the cases awaiting image references (PENDING.json: media, diffuse and glass
+# bases, ENDF-sized coats), 4-12 min each on one core; run two halves in parallel on 2 cores.
+PENDING := $(shell $(PYTHON) -c "import json; print(','.join(json.load(open('addon/lamella/data/stacks/PENDING.json'))))")
+references-pending: setup
+	$(VENV)/bin/lamella references --cases $(PENDING) --spp 32768 --out tests/references/brdf_pending
 
 # The stored image references (tests/references/images): every suite stack as nested interface
 # spheres, path traced at 128 px; 2048 spp per pass (about 40 min on 2 cores), refined by a

@@ -112,6 +112,10 @@ def cmd_bench(a) -> int:
 
         md, _ = osl_cost.run()
         print(md.read_text())
+    elif a.what == "trapping":
+        from .bench import trapping
+
+        print(trapping.run(BENCH_DIR).read_text())
     elif a.what == "shells":
         from .bench import image_references
 
@@ -233,7 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "shells"])
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "shells", "trapping"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)
 

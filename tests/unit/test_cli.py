@@ -49,3 +49,12 @@ def test_plot_of_glass_has_a_transmitted_row(tmp_path):
     assert main(["plot", "rough_glass_plate", "-o", str(out), "--spp", "8", "--wi", "30"]) == 0
     assert main(["plot", "gold_coated", "-o", str(out_metal), "--spp", "8", "--wi", "30"]) == 0
     assert imread(out).shape[0] > 1.4 * imread(out_metal).shape[0]
+
+
+def test_trapping_bench_writes_its_table(tmp_path):
+    """`lamella bench trapping` (bench/trapping.md): every variant at every angle, reference and models."""
+    from lamella.bench import trapping
+
+    md = trapping.run(tmp_path, spp=2048)
+    rows = [line for line in md.read_text().splitlines() if line.startswith("| ") and "°" in line]
+    assert len(rows) == len(trapping.VARIANTS) * len(trapping.ANGLES)

@@ -104,6 +104,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     R0i, Ri0, T0i, Ti0 = RGB.splat(0.0), RGB.splat(0.0), RGB.splat(1.0), RGB.splat(1.0)
     s_r0i, s_ri0, s_t0i, s_ti0 = Spread.zero(), Spread.zero(), Spread.zero(), Spread.zero()
     j0i, ji0 = 1.0, 1.0
+    A0i = RGB.splat(1.0)  # one-way transmittance of the absorbing interiors above (along the mean path)
 
     lobes: list[Lobe] = []
     for index, p in enumerate(coats):
@@ -113,7 +114,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
             ops, Spread, mapping, p, sx, sy, cti, n12)
         R0i, T0i, Ri0, Ti0, s_r0i, s_t0i, s_ri0, s_ti0, lobe = _add_interface(
             ops, variant, mapping, index, sx, sy, n_above, RGB.splat(Rs), RGB.splat(Ts), j12, s_r12, s_t12, s_t21,
-            (R0i, T0i, Ri0, Ti0), (s_r0i, s_t0i, s_ri0, s_ti0), j0i, ji0)
+            (R0i, T0i, Ri0, Ti0), (s_r0i, s_t0i, s_ri0, s_ti0), j0i, ji0, A0i)
         lobes.append(lobe)
         j0i, ji0 = j0i * j12, ji0 * j21
         cti, sx, sy = ctt, tsx, tsy
@@ -125,6 +126,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
             path = p["thickness"] / ops.max(cti, COS_FLOOR)
             t = p["sigma_a"].map(lambda s: ops.exp(-s * path))
             T0i, Ti0, Ri0 = T0i * t, Ti0 * t, Ri0 * t * t
+            A0i = A0i * t
             if diffuse_up is not None:
                 diffuse_up.add_medium(ops, p["sigma_a"].map(lambda s: diffuse_transmittance(ops, s * p["thickness"])))
 
@@ -151,7 +153,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
         R12, T12 = RGB.splat(Rs), RGB.splat(Ts)
     R0i, T0i, Ri0, Ti0, s_r0i, s_t0i, s_ri0, s_ti0, lobe = _add_interface(
         ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12, s_r12, s_t12, s_t21,
-        (R0i, T0i, Ri0, Ti0), (s_r0i, s_t0i, s_ri0, s_ti0), j0i, ji0)
+        (R0i, T0i, Ri0, Ti0), (s_r0i, s_t0i, s_ri0, s_ti0), j0i, ji0, A0i)
     lobes.append(lobe)
     if resp.transmittance is not None:
         # What crossed every interface leaves downward: one GGX transmission lobe with the
@@ -191,7 +193,7 @@ def _dielectric_interface(ops, Spread, mapping, p, sx, sy, cti, n12):
 
 
 def _add_interface(ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12, s_r12, s_t12, s_t21,
-                   energies, spreads, j0i, ji0):
+                   energies, spreads, j0i, ji0, A0i):
     """Add one interface (energies R12 = R21, T12 = T21, Belcour's symmetric approximation)
     below the stack added so far; returns the new statistics and the interface's lobe."""
     R0i, T0i, Ri0, Ti0 = energies
@@ -207,7 +209,7 @@ def _add_interface(ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12,
     if variant.tir and index > 0:
         spread_up = mapping.to_roughness(ops, (s_t0i + s_r12).mean())
         tir = tir_fraction(ops, sx, sy, n_above, spread_up)
-        Ri0_seen = Ri0 + Ti0 * (1.0 - tir)
+        Ri0_seen = Ri0 + Ti0 * A0i * (1.0 - tir)
         Ti0_seen = Ti0 * tir
     m_R0i = T0i * R12 * Ti0_seen / (1.0 - Ri0_seen * R12).map(lambda d: ops.max(d, 1e-7))
 
