@@ -75,3 +75,15 @@ def test_reference_noise_floor(rows):
     for (case, model, wi), r in rows.items():
         if "unsupported" not in r:  # a model that cannot run a case has no figures for it
             assert r["ref_noise"] < 0.1, (case, wi, r["ref_noise"])
+
+
+@pytest.mark.parametrize("case", suite.names())
+def test_auto_is_within_ten_percent_of_the_best_model(rows, case):
+    """`auto` (a structural choice) is never worse than the best single model on a suite case by
+    more than 10 % relative, in relative L1 averaged over the incidence angles."""
+    def mean(m):
+        rs = [rows[(case, m, wi)] for wi in suite.WI_DEGREES]
+        return np.mean([r["rel_l1"] for r in rs]) if all("rel_l1" in r for r in rs) else np.inf
+
+    best = min(mean(m) for m in MODELS if m != "auto")
+    assert mean("auto") <= 1.1 * best, (mean("auto"), best)

@@ -172,7 +172,7 @@ def media_stacks(draw):
 def test_media_outputs_are_finite_and_passive(dtype, d, cos):
     wi = edge_directions(cos)
     wo = edge_directions(cos)[::-1] * np.array([1.0, 1.0, -1.0 if d["base"]["type"] == "dielectric" else 1.0])
-    for model in ("tm6", "auto"):
+    for model in ("tm6", "belcour2018", "yamaguchi2019", "auto"):
         lb = lc.lobes(d, wi, model, dtype=dtype)
         for name in ("weight", "alpha_x", "alpha_y", "rotation"):
             a = getattr(lb, name)

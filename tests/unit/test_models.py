@@ -218,12 +218,25 @@ def test_yamaguchi_rotates_with_the_interface():
     np.testing.assert_allclose(np.mod(lb1.rotation - lb0.rotation, np.pi), 0.7, atol=1e-9)
 
 
-def test_unsupported_parts_raise_with_a_reason():
-    """The adding-doubling variants have no scattering media; they say which coat scatters."""
-    d = {"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [1, 1, 1]}], "base": GOLD}
-    for m in MODELS:
-        with pytest.raises(lc.UnsupportedStack, match="coat 0 scatters"):
-            lc.lobes(d, directions([0.0]), m)
+@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("degrees", [0.0, 50.0])
+def test_belcour_medium_operator(model, degrees):
+    """A scattering coat in the adding-doubling family is Belcour 2018's medium operator: over a
+    perfect mirror, through a pure medium (ior 1, smooth), the light that comes back is
+    T^2 with T = (1 + sigma_s h) exp(-sigma_t h), h = d / cos (unscattered or scattered once,
+    forward); its lobe widens by Eq. 21's variance of g, and hardly at all as g tends to 1."""
+    mirror = {"type": "conductor", "eta": [1e-4] * 3, "k": [1e4] * 3, "roughness": 0.0}
+    d = {"layers": [{"ior": 1.0, "thickness": 0.7, "sigma_a": [0.0, 0.3, 1.0], "sigma_s": [0.5, 0.5, 2.0],
+                     "g": 0.8}], "base": mirror}
+    wi = directions([degrees])
+    h = 0.7 / np.cos(np.radians(degrees))
+    sa, ss = np.array([0.0, 0.3, 1.0]), np.array([0.5, 0.5, 2.0])
+    t = (1.0 + ss * h) * np.exp(-(sa + ss) * h)
+    np.testing.assert_allclose(lc.albedo(d, wi, model)[0], t * t, rtol=1e-6)
+    lb = lc.lobes(d, wi, model)
+    assert lb.alpha_x[0, -1] > 0.05
+    d["layers"][0]["g"] = 0.99999
+    assert lc.lobes(d, wi, model).alpha_x[0, -1] < 1e-3
 
 
 def test_model_names():

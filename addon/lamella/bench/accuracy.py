@@ -133,7 +133,8 @@ def format_markdown(rows: list[dict], models) -> str:
         "",
         "| stack | auto runs | why |",
         "|---|---|---|",
-        "| any coat scatters (sigma_s > 0) | tm6 | the only model with forward and back-scattered fluxes |",
+        "| any coat scatters (sigma_s > 0) | tm6 | forward and back-scattered fluxes (the adding family's Belcour "
+        "2018 medium operator keeps single forward scattering only) |",
         "| interfaces and absorbing coats, any base | yamaguchi2019 | the 2x2 covariance follows rotated anisotropy; "
         "best or tied on these cases |",
         "",

@@ -32,8 +32,10 @@ def choose_auto(stack) -> str:
     ====================================  ==============  =====================================
     stack                                 model           why
     ====================================  ==============  =====================================
-    any coat scatters (sigma_s > 0)       tm6             the only model with secondary fluxes
-                                                          (forward and back scattering)
+    any coat scatters (sigma_s > 0)       tm6             secondary fluxes (forward and back
+                                                          scattering); Belcour 2018's medium
+                                                          operator in the adding family keeps
+                                                          single forward scattering only
     interfaces, absorbing coats, any      yamaguchi2019   2x2 covariance: follows rotated
     base                                                  anisotropy; the adding-doubling
                                                           family is best on these cases

@@ -19,9 +19,14 @@ Per interface, with cti the cosine of the mean direction above it and n12 = n_be
 * the adding equations of Listing 3 lines 46-76 (energies: Randrianandrasana et al. 2021 Eqs. 1-2 and 10; spreads:
   Randrianandrasana et al. 2021 Eq. 11), one output lobe per interface with energy m_R0i (the light that reached the
   interface and came back out, all orders);
-* an absorbing coat interior (Beer-Lambert along the refracted mean direction, as Belcour 2018's
-  medium layers without scattering): T = exp(-sigma_a d / cos), which in the adding equations
-  reduces to T0i *= T, Ti0 *= T, Ri0 *= T^2 with unchanged spreads.
+* a coat interior, Belcour 2018's medium operator along the refracted mean direction (path
+  h = d / cos): T = (1 + sigma_s h) exp(-(sigma_a + sigma_s) h), the unscattered light plus the
+  light scattered once, all of it forward; R = 0; the scattered light widens the transmitted
+  spreads by Belcour 2018 Eq. 21's variance of the HG asymmetry g (``hg.belcour_variance_of_g``).
+  With sigma_s = 0 this is Beer-Lambert. In the adding equations a component with R = 0 reduces to
+  T0i *= T, Ti0 *= T, Ri0 *= T^2, s_t0i += s_g, s_ti0 += s_g, s_ri0 += 2 s_g. Light scattered more
+  than once, and back-scattered light, is lost (the energy loss of Belcour's model in thick media,
+  Randrianandrasana et al. 2021 Fig. 2; tm6 keeps it).
 * the base by its kind's response (``lamella.core.layers``): a GGX reflection lobe for a
   conductor or a dielectric substrate; the energy crossing a dielectric base leaves as one GGX
   transmission lobe with the accumulated transmitted statistics (Belcour 2018's T paths; energy as
@@ -34,6 +39,8 @@ from dataclasses import dataclass
 
 from .diffuse_transport import DiffuseUp, diffuse_transmittance
 from .fgd import fgd_dielectric, tir_fraction
+from .hg import belcour_variance_of_g
+from .homogeneous_medium import slab
 from .rgb import RGB
 
 COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
@@ -70,14 +77,6 @@ class Variant:
         return adding_doubling(ops, stack, wi, self)
 
 
-def check_supported(stack, model_name: str) -> None:
-    for i, c in enumerate(stack.coats):
-        if c.has_scattering:
-            raise UnsupportedStack(
-                f"{model_name}: coat {i} scatters (sigma_s > 0); this model has no scattering media "
-                "(tm6 and auto have)")
-
-
 def layer_params(ops, stack):
     """Every per-layer parameter as a backend value (a shader input when traced), by the layer
     kinds' own ``params``."""
@@ -89,7 +88,6 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     """Lobes (one per reflecting interface, top to bottom, then a transmission or diffuse lobe if
     the base has one) for the incident direction ``wi = (x, y, z)`` (backend values, unit vector
     in the upper hemisphere)."""
-    check_supported(stack, variant.name)
     Spread, mapping = variant.spread, variant.mapping
     coats, base = layer_params(ops, stack)
     base_kind = stack.base.kind
@@ -121,14 +119,25 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
         n_above = p["ior"]
         if diffuse_up is not None:
             diffuse_up.add_interface(ops, n12)
-        # The coat's interior: Beer-Lambert along the refracted mean direction
-        if "sigma_a" in p:
+        # The coat's interior (Belcour 2018's medium operator) along the refracted mean direction
+        if "thickness" in p:
             path = p["thickness"] / ops.max(cti, COS_FLOOR)
-            t = p["sigma_a"].map(lambda s: ops.exp(-s * path))
+            sig_a = p.get("sigma_a", RGB.splat(0.0))
+            if "sigma_s" in p:
+                sig_t = sig_a + p["sigma_s"]
+                t = RGB(*((1.0 + ss * path) * ops.exp(-st * path) for st, ss in zip(sig_t, p["sigma_s"])))
+                s_g = Spread.isotropic(belcour_variance_of_g(ops, p["g"]))
+                s_t0i, s_ti0, s_ri0 = s_t0i + s_g, s_ti0 + s_g, s_ri0 + s_g.scale(2.0)
+            else:
+                t = sig_a.map(lambda s: ops.exp(-s * path))
             T0i, Ti0, Ri0 = T0i * t, Ti0 * t, Ri0 * t * t
             A0i = A0i * t
             if diffuse_up is not None:
-                diffuse_up.add_medium(ops, p["sigma_a"].map(lambda s: diffuse_transmittance(ops, s * p["thickness"])))
+                if "sigma_s" in p:  # diffuse light: Kubelka-Munk over twice the thickness, as tm6
+                    kd = [slab(ops, st, ss, p["g"], 2.0 * p["thickness"]) for st, ss in zip(sig_t, p["sigma_s"])]
+                    diffuse_up.add_medium(ops, RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd)))
+                else:
+                    diffuse_up.add_medium(ops, sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"])))
 
     ops.set_scope("base")
     index = len(coats)

@@ -32,3 +32,11 @@ def backscatter_fraction(ops, g):
     u = ops.abs(g)
     q = 0.5039 - 0.8254 * u + 0.3226 * u * u
     return ops.select(g >= 0.0, q, 1.0 - q)
+
+
+def belcour_variance_of_g(ops, g):
+    """The spread a HG medium adds to the light it scatters forward, in the variance space of
+    Belcour 2018's roughness mapping (Belcour 2018, Eq. 21): ((1 - g) / g)^0.8 / (1 + g), g clamped
+    to [1e-5, 1] (isotropic and back-scattering media spread as far as the mapping goes)."""
+    gc = ops.clamp(g, 1e-5, 1.0)
+    return ops.pow((1.0 - gc) / gc, 0.8) / (1.0 + gc)

@@ -26,6 +26,10 @@ class ScalarVariance:
     def zero():
         return ScalarVariance(0.0)
 
+    @staticmethod
+    def isotropic(v):
+        return ScalarVariance(v)
+
     def __add__(self, o):
         return ScalarVariance(self.v + o.v)
 
@@ -79,6 +83,10 @@ class AxisVariance:
     def zero():
         return AxisVariance(0.0, 0.0)
 
+    @staticmethod
+    def isotropic(v):
+        return AxisVariance(v, v)
+
     def __add__(self, o):
         return AxisVariance(self.x + o.x, self.y + o.y)
 
@@ -123,6 +131,10 @@ class CovarianceVariance:
     @staticmethod
     def zero():
         return CovarianceVariance(0.0, 0.0, 0.0)
+
+    @staticmethod
+    def isotropic(v):
+        return CovarianceVariance(v, 0.0, v)
 
     def __add__(self, o):
         return CovarianceVariance(self.xx + o.xx, self.xy + o.xy, self.yy + o.yy)
