@@ -182,3 +182,17 @@ def test_media_outputs_are_finite_and_passive(dtype, d, cos):
         assert (lb.weight.sum(1) <= 1.0 + slack).all(), lb.weight.sum(1).max()
         f = lc.evaluate(d, wi, wo, model, dtype=dtype)
         assert f.dtype == dtype and np.isfinite(f).all() and (f >= 0).all()
+
+
+def test_medium_shader_cost_does_not_depend_on_depth():
+    """Thin and thick media trace to the same shader: only the parameter defaults differ."""
+    import re
+
+    from lamella.core import suite
+    from lamella.core.backends.osl import emit_osl
+
+    def body(name):
+        src = emit_osl(suite.load(name), name="s")
+        return [ln for ln in src.splitlines() if not ln.startswith("// stack:") and not re.match(r"    float \w+ = [-\d.e]+,$", ln)]
+
+    assert body("fog_g09_d01") == body("fog_g09_d4")

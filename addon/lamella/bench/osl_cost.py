@@ -23,8 +23,9 @@ from . import BENCH_DIR
 RES, SPP, REPEATS = 96, 64, 3
 
 
-def feature_ladder() -> list[tuple[str, Stack]]:
-    """(label, stack): the one-coat isotropic stack and each feature added to it."""
+def feature_ladder() -> list[tuple[str, Stack, str]]:
+    """(label, stack, model): the one-coat isotropic stack and each feature added to it, then the
+    other stack kinds (media at two depths: the same shader, so the cost cannot depend on depth)."""
     base = suite.load("gold_coated").to_dict()
 
     def variant(name, **changes):
@@ -36,19 +37,25 @@ def feature_ladder() -> list[tuple[str, Stack]]:
         return Stack.from_dict(d)
 
     return [
-        ("one coat, isotropic", variant("iso")),
-        ("+ anisotropic base", variant("aniso", base__roughness=[0.15, 0.05])),
+        ("one coat, isotropic", variant("iso"), "auto"),
+        ("+ anisotropic base", variant("aniso", base__roughness=[0.15, 0.05]), "auto"),
         ("+ rotated anisotropic coat", variant("rotated", base__roughness=[0.15, 0.05],
-                                               coat__roughness=[0.1, 0.02], coat__rotation=0.6)),
-        ("+ absorbing coat", variant("absorbing", coat__thickness=0.5, coat__sigma_a=[0.05, 0.4, 1.2])),
-        ("four coats (all of the above)", suite.example("four_coats")),
+                                               coat__roughness=[0.1, 0.02], coat__rotation=0.6), "auto"),
+        ("+ absorbing coat", variant("absorbing", coat__thickness=0.5, coat__sigma_a=[0.05, 0.4, 1.2]), "auto"),
+        ("four coats (all of the above)", suite.example("four_coats"), "auto"),
+        ("one coat, isotropic, endf", variant("iso"), "endf"),
+        ("scattering medium depth 0.1 over gold (tm6)", suite.load("fog_g09_d01"), "auto"),
+        ("scattering medium depth 4 over gold (tm6)", suite.load("fog_g09_d4"), "auto"),
+        ("scattering dielectric coat over gold (tm6)", suite.load("milky_coat_d2"), "auto"),
+        ("varnish over a diffuse base", suite.load("varnished_wood"), "auto"),
+        ("tinted coat over rough glass", suite.example("coated_glass"), "auto"),
     ]
 
 
-def static_cost(stack: Stack) -> dict:
+def static_cost(stack: Stack, model: str = "auto") -> dict:
     from ..core.backends.osl import emit_osl
 
-    src = emit_osl(stack)
+    src = emit_osl(stack, model)
     body = src[src.index("\nshader "):]
     return {
         "lines": len(src.splitlines()),
@@ -56,7 +63,7 @@ def static_cost(stack: Stack) -> dict:
         "texture_reads": len(re.findall(r"lamella_tex4?\(", body)) + 2 * len(re.findall(r"lamella_lut3\(", body))
         + len(re.findall(r"lamella_lut2\(", body)),
         "inputs": len(re.findall(r"^    (?:float|vector|normal|string|color) \w+ = ", body[:body.index("{")], re.M)),
-        "closures": body.count("microfacet("),
+        "closures": body.count("microfacet(") + body.count("diffuse("),
         "source": src,
     }
 
@@ -84,15 +91,15 @@ def run(out_dir: Path = BENCH_DIR, repeats: int = REPEATS, progress=print) -> tu
 
     ladder = feature_ladder()
     rows = []
-    for label, stack in ladder:
-        row = {"label": label, **static_cost(stack)}
+    for label, stack, model in ladder:
+        row = {"label": label, **static_cost(stack, model)}
         row["compile_ms"] = compile_ms(row.pop("source"))
         row["seconds"], row["principled_seconds"] = [], []
         rows.append(row)
     # interleave engines and stacks so machine load drifts hit all of them alike
     for r in range(repeats):
-        for row, (label, stack) in zip(rows, ladder):
-            _, t = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="cycles-osl")
+        for row, (label, stack, model) in zip(rows, ladder):
+            _, t = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="cycles-osl", model=model)
             _, tp = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="principled")
             row["seconds"].append(t)
             row["principled_seconds"].append(tp)
