@@ -70,11 +70,17 @@ def lobes(stack, wi, model="auto", dtype=np.float64) -> Lobes:
     )
 
 
-def evaluate(stack, wi, wo, model="auto", dtype=np.float64) -> np.ndarray:
-    """f(wi, wo) * |wo.z| as an (N, 3) array (wi broadcasts against wo)."""
+def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True) -> np.ndarray:
+    """f(wi, wo) * |wo.z| as an (N, 3) array (wi broadcasts against wo). ``deltas=False`` leaves
+    out the lobes of zero roughness (smooth interfaces), which a pointwise comparison cannot see:
+    evaluated at the roughness floor they are a spike at the one direction nearest the mirror, and
+    a reference that estimates f pointwise never samples a delta (their energy is in ``albedo``)."""
     wo = _dirs(wo, dtype)
     wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
     ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
+    if not deltas:
+        ls = [lobe for lobe in ls if not (lobe_kinds.kind(lobe.kind).rough and np.all(np.asarray(lobe.alpha_x) == 0.0)
+                                          and np.all(np.asarray(lobe.alpha_y) == 0.0))]
     wo_vals = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
     f = lobe_kinds.eval_lobes_cos(ops, ls, wi_vals, wo_vals)
     return np.stack([_full(c, wo.shape[0], ops.dtype) for c in f], -1)

@@ -30,7 +30,8 @@ class LobeKind:
     ``scale(ops, lobe, wi)``: the normaliser; ``side``: ``"reflected"`` or ``"transmitted"``;
     ``args(ops, lobe, wi)``: the closure's arguments as named backend values (roughness, axes,
     normal), which a backend prints or wires; ``osl(a)``: the Cycles OSL closure call, given the
-    printed expressions ``a`` of those arguments; ``description``: one line for docs and tables."""
+    printed expressions ``a`` of those arguments; ``description``: one line for docs and tables;
+    ``rough``: the lobe is a microfacet lobe, a delta at zero roughness."""
 
     name: str
     side: str
@@ -39,6 +40,7 @@ class LobeKind:
     args: Callable
     osl: Callable
     description: str
+    rough: bool = True
 
 
 def _ggx_closure_cos(ops, lobe, wi, wo):
@@ -203,7 +205,7 @@ KINDS: dict[str, LobeKind] = {k.name: k for k in (
     LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _ggx_args, _osl_ggx_reflection,
              "GGX reflection about the mirror direction, GD-normalised"),
     LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args, _osl_diffuse,
-             "Lambertian reflection (the light a diffuse base sends back up)"),
+             "Lambertian reflection (the light a diffuse base sends back up)", rough=False),
     LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _backscatter_args,
              _osl_backscatter,
              "GGX reflection about the incident direction (light back-scattered by a medium)"),
