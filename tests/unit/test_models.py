@@ -258,3 +258,19 @@ def test_fresnel_edges():
     np.testing.assert_allclose(fresnel_dielectric(ops, np.array(1.0), 1.5), 0.04, rtol=1e-12)
     np.testing.assert_allclose(fresnel_conductor(ops, np.array(1.0), 1.5, 0.0), 0.04, rtol=1e-12)
     assert fresnel_conductor(ops, np.array(0.0), 0.2, 3.0) == 1.0
+
+
+def test_evaluate_can_leave_out_delta_lobes():
+    """deltas=False drops the zero-roughness microfacet lobes (a smooth coat's reflection) and
+    nothing else: rough lobes and a diffuse base's Lambertian lobe (roughness 0 by kind) stay."""
+    from lamella.core import suite
+
+    wi = directions([20.0])[0]
+    wo = directions([5.0, 20.0, 40.0, 70.0]) * np.array([-1.0, 1.0, 1.0])
+    smooth = {"layers": [{"ior": 1.5, "roughness": 0.0}], "base": dict(GOLD, roughness=0.2)}
+    rough_only = lc.evaluate(smooth, wi, wo, deltas=False)
+    spike = lc.evaluate(smooth, wi, wo) - rough_only  # the smooth coat's lobe, at the roughness floor
+    assert rough_only.min() > 0.0
+    assert spike[1].min() > 1.0 and np.abs(spike[[0, 2, 3]]).max() < 1e-9  # wo[1] is the mirror direction
+    wood = suite.load("varnished_wood")
+    np.testing.assert_array_equal(lc.evaluate(wood, wi, wo, deltas=False), lc.evaluate(wood, wi, wo))
