@@ -34,7 +34,10 @@ correction on the upward transmission of each interface (local escape cone, at t
 the light coming back up: the primary's, and for the secondary families, whose spread is not
 known when the interface is added, the broadest lobe of the table; keeping the primary's
 escape cone for them let scattered light out of a dielectric coat far too easily); asymmetries g_R = g(alpha) and g_T from the first-order tracking of
-Eq. 22 with the smooth-interface operator of Eq. 17 and Belcour's scale of Eq. 9. Media: see
+Eq. 22 with the smooth-interface operator of Eq. 17 and Belcour's scale of Eq. 9, downward from
+the primary's first-order asymmetry, upward from that of the light the next interface reflects
+back (after Eq. 22; using the downward factor both ways left a lobe leaving a smooth coat as
+narrow as the base's: tm6 relative L1 on gold_coated 0.46 -> 0.28). Media: see
 ``homogeneous_medium.py``.
 """
 from __future__ import annotations
@@ -208,8 +211,9 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         up = {(k, k): RGB.splat(ups[k][0]) for k in range(n)}
         tup = {(k, k): RGB.splat(ups[k][1]) for k in range(n)}
         ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), up, tup)
+        g_tu = _upward_transmission_g(ops, g1_new, _next_alpha(ops, coats, base, index), alpha, n12)
         cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n),
-                       {k: v * g_r for k, v in up.items()}, {k: v * g_t for k, v in tup.items()})
+                       {k: v * g_r for k, v in up.items()}, {k: v * g_tu for k, v in tup.items()})
         add(ce, cg)
         if diffuse_up is not None:
             diffuse_up.add_interface(ops, n12)
@@ -274,6 +278,29 @@ def _interface(ops, cti, alpha, n12, g1):
     s = 0.5 * ops.abs(n12 - 1.0) / n12
     g_t1 = hg.transmitted_g(ops, g1, 1.0 / n12) * hg.g_of_alpha(ops, ops.min(s * alpha, 1.0))
     return R, 1.0 - R, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
+
+
+def _next_alpha(ops, coats, base, index):
+    """Roughness of the interface below coat ``index`` (the next coat's top or the base's); a
+    Lambertian base sends up light of asymmetry 0, i.e. roughness 1."""
+    if index + 1 < len(coats):
+        nxt = coats[index + 1]
+        return rms_alpha(ops, nxt["ax"], nxt["ay"])
+    if "ax" in base:
+        return rms_alpha(ops, base["ax"], base["ay"])
+    return 1.0
+
+
+def _upward_transmission_g(ops, g_down, alpha_next, alpha, n12):
+    """g^T_ji of Randrianandrasana et al. 2021 Eq. 22 for light going back up through an interface
+    (index n_above * n12 below it, roughness alpha): the first-order asymmetry of the light that
+    comes up, g_up = g_down g(alpha_next) (the primary reflected by the next interface, "the next
+    interface's roughness", after Eq. 22), through the smooth operator of Eq. 17 from n12 onto 1
+    and the rough blur of Eq. 18 at Belcour's upward scale |n12 - 1| / 2; as a factor on g_up."""
+    g_up = g_down * hg.g_of_alpha(ops, alpha_next)
+    s = 0.5 * ops.abs(n12 - 1.0)
+    g_out = hg.transmitted_g(ops, g_up, n12) * hg.g_of_alpha(ops, ops.min(s * alpha, 1.0))
+    return ops.select(g_up > 1e-6, g_out / ops.max(g_up, 1e-6), 0.0)
 
 
 def _medium(ops, p, mu, n: int):
