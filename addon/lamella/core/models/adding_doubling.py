@@ -134,7 +134,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
             A0i = A0i * t
             if diffuse_up is not None:
                 if "sigma_s" in p:  # diffuse light: Kubelka-Munk over twice the thickness, as tm6
-                    kd = [slab(ops, st, ss, p["g"], 2.0 * p["thickness"]) for st, ss in zip(sig_t, p["sigma_s"])]
+                    kd = [slab(ops, sa, ss, p["g"], 2.0 * p["thickness"]) for sa, ss in zip(sig_a, p["sigma_s"])]
                     diffuse_up.add_medium(ops, RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd)))
                 else:
                     diffuse_up.add_medium(ops, sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"])))

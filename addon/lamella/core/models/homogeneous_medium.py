@@ -19,6 +19,11 @@ particular solution of Eq. 32 is j_f = -e^{-sigma_t z}, j_b = 0, so primary + fo
 is itself a Kubelka-Munk flux: a unit primary input leaves R_KM as backward secondary on its own
 side and T_KM - T_pp as forward secondary on the far side. Every factor lies in [0, 1] for any
 optical depth (0 beyond float range), so the shader's cost and stability do not depend on depth.
+
+gamma is formed as sqrt((alpha - beta)(alpha + beta)) from sums of the coefficients that never
+cancel: for energies alpha - beta = sigma_a exactly. (alpha = sigma_t - tau_f computed as written
+leaves a rounding of sigma_t in alpha - beta: in float32 a non-absorbing medium of sigma_s 600
+then absorbed as if sigma_a were 4e-5, and R + T fell short of 1 by 2e-5 relative.)
 """
 from __future__ import annotations
 
@@ -27,10 +32,12 @@ from .hg import backscatter_fraction
 SERIES_BELOW = 1e-3  # gamma h' below which D uses its series h' (1 - x + 2 x^2 / 3)
 
 
-def kubelka_munk(ops, alpha, beta, h):
+def kubelka_munk(ops, alpha, beta, h, alpha_minus_beta=None):
     """(R, T) of the two-flux system with attenuation ``alpha``, coupling ``beta`` (|beta| <=
-    alpha) over path length ``h`` (>= 0)."""
-    gamma = ops.sqrt(ops.max(alpha * alpha - beta * beta, 0.0))
+    alpha) over path length ``h`` (>= 0). ``alpha_minus_beta``, when the caller has it without
+    cancellation, makes gamma exact for nearly conservative media."""
+    amb = alpha - beta if alpha_minus_beta is None else alpha_minus_beta
+    gamma = ops.sqrt(ops.max(amb * (alpha + beta), 0.0))
     x = gamma * h
     e2 = ops.exp(-2.0 * x)
     d_exact = (1.0 - e2) / ops.max(2.0 * gamma, 1e-30)
@@ -41,14 +48,19 @@ def kubelka_munk(ops, alpha, beta, h):
     return beta * d / den, ops.exp(-x) / den
 
 
-def slab(ops, sigma_t, sigma_s, g, h, asymmetry: bool = False):
+def slab(ops, sigma_a, sigma_s, g, h, asymmetry: bool = False):
     """Six-flux factors of a slab over path length ``h`` for one channel: (T_pp, R_KM, T_KM).
 
-    Energies (``asymmetry=False``, Eq. 33): tau_f = sigma_s (1 - p-(g)), rho_b = sigma_s p-(g).
-    Unnormalised asymmetries (``asymmetry=True``, Eq. 34): tau_f g and -rho_b g."""
+    Energies (``asymmetry=False``, Eq. 33): tau_f = sigma_s (1 - p-(g)), rho_b = sigma_s p-(g),
+    so alpha = sigma_a + rho_b and alpha - beta = sigma_a. Unnormalised asymmetries
+    (``asymmetry=True``, Eq. 34): tau_f g and -rho_b g, so alpha = sigma_a + sigma_s - g tau_f,
+    alpha - beta = sigma_a + sigma_s - g (tau_f - rho_b)."""
     sb = sigma_s * backscatter_fraction(ops, g)
     sf = sigma_s - sb
+    sigma_t = sigma_a + sigma_s
     if asymmetry:
-        sf, sb = sf * g, -sb * g
-    r, t = kubelka_munk(ops, sigma_t - sf, sb, h)
+        alpha, beta = sigma_a + sigma_s - g * sf, -g * sb
+        r, t = kubelka_munk(ops, alpha, beta, h, sigma_a + sigma_s - g * (sf - sb))
+    else:
+        r, t = kubelka_munk(ops, sigma_a + sb, sb, h, sigma_a)
     return ops.exp(-sigma_t * h), r, t

@@ -319,9 +319,8 @@ def _medium(ops, p, mu, n: int):
         t_d = sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"]))
         return (Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n)), t_d, None)
     sig_s, g = p["sigma_s"], p["g"]
-    sig_t = sig_a + sig_s
-    e = [slab(ops, st, ss, g, h) for st, ss in zip(sig_t, sig_s)]
-    a = [slab(ops, st, ss, g, h, asymmetry=True) for st, ss in zip(sig_t, sig_s)]
+    e = [slab(ops, sa, ss, g, h) for sa, ss in zip(sig_a, sig_s)]
+    a = [slab(ops, sa, ss, g, h, asymmetry=True) for sa, ss in zip(sig_a, sig_s)]
 
     def comp(parts):
         tpp, r, t = (RGB(*(x[k] for x in parts)) for k in range(3))
@@ -330,6 +329,6 @@ def _medium(ops, p, mu, n: int):
         return Component(rt, td, dict(rt), dict(td))
 
     # diffuse light from a Lambertian base: Kubelka-Munk over twice the thickness
-    kd = [slab(ops, st, ss, g, 2.0 * p["thickness"]) for st, ss in zip(sig_t, sig_s)]
+    kd = [slab(ops, sa, ss, g, 2.0 * p["thickness"]) for sa, ss in zip(sig_a, sig_s)]
     r_d, t_d = RGB(*(x[1] for x in kd)), RGB(*(x[2] for x in kd))
     return comp(e), comp(a), t_d, r_d
