@@ -26,7 +26,8 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     between engines are the materials' alone. ``open_back`` removes the half of the sphere the
     camera does not see, so a light behind it reaches the front through transmission lobes:
     Cycles' shadow rays stop at the far side of a closed mesh whose shader has no transparent
-    closure, whatever its refracting closures would let through."""
+    closure, whatever its refracting closures would let through. The open scene renders direct
+    light only (no bounces)."""
     bpy = _bpy()
     from mathutils import Vector
 
@@ -51,6 +52,9 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     sphere = bpy.context.object
     bpy.ops.object.shade_smooth()
     if open_back:
+        # the open half-sphere sees its own inside, which would add indirect light to the direct
+        # light a transmission lobe lets through: render direct light only
+        sc.cycles.max_bounces = 0
         import bmesh
 
         bm = bmesh.new()
