@@ -126,7 +126,9 @@ def test_glass_plate_energy_is_conserved():
     (their TIR correction is part of the interface, so it conserves energy); the adding-doubling
     family applies Belcour's TIR correction to the reflected lobe only, so it loses energy toward
     grazing (measured: 1 - R - T = 0.002 at 0 deg, 0.046 at 60 deg, 0.10 at 75 deg) but never
-    creates any. The transmission lobe integrates to its energy over the lower hemisphere."""
+    creates any. The transmission lobe integrates to its energy over the lower hemisphere, less
+    the part of it Cycles cuts above the surface (measured at 60 deg: 0.3 % for the adding
+    family's lobe, 1.4 % for the wider ENDF lobe)."""
     d = stack(coat(1.5, 0.1), base={"type": "dielectric", "ior": 1.0, "roughness": 0.1})
     wi = directions(THETAS)
     for m in ("tm2", "tm6"):
@@ -136,9 +138,11 @@ def test_glass_plate_energy_is_conserved():
     assert (total <= 1.0 + 1e-12).all() and (total[:2] > 0.99).all(), total
     wo, dw = hemisphere(200)
     wo = wo * np.array([1.0, 1.0, -1.0])
-    for w in wi[:3]:
-        f = lc.evaluate(d, np.broadcast_to(w, wo.shape), wo)
-        np.testing.assert_allclose((f * dw[:, None]).sum(0), lc.albedo(d, w, side="transmitted")[0], rtol=0.01)
+    for m in ("yamaguchi2019", "endf"):
+        for w, low in zip(wi[:3], (0.99, 0.99, 0.98)):
+            f = lc.evaluate(d, np.broadcast_to(w, wo.shape), wo, m)
+            ratio = (f * dw[:, None]).sum(0) / lc.albedo(d, w, m, side="transmitted")[0]
+            assert (ratio > low).all() and (ratio < 1.002).all(), (m, w, ratio)
 
 
 def test_auto_picks_by_structure():
@@ -213,3 +217,16 @@ def test_medium_shader_cost_does_not_depend_on_depth():
         return [ln for ln in src.splitlines() if not ln.startswith("// stack:") and not re.match(r"    float \w+ = [-\d.e]+,$", ln)]
 
     assert body("fog_g09_d01") == body("fog_g09_d4")
+
+
+@pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.005, 0.3, 0.9, 0.999])
+def test_backward_mean_cosine_of_hg(g):
+    """The closed form against a quadrature of the HG phase function over its backward half."""
+    from lamella.core.models.hg import backward_mean_cosine
+
+    mu = (np.arange(200000) + 0.5) / 200000 - 1.0
+    p = (1 - g * g) / (1 + g * g - 2 * g * mu) ** 1.5
+    expected = float((-mu * p).sum() / p.sum())
+    for dtype in (np.float64, np.float32):
+        got = float(backward_mean_cosine(NumpyOps(dtype), dtype(g)))
+        assert abs(got - expected) < (1e-6 if dtype == np.float64 else 2e-4), (dtype, got, expected)

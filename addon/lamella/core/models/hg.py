@@ -40,3 +40,16 @@ def belcour_variance_of_g(ops, g):
     to [1e-5, 1] (isotropic and back-scattering media spread as far as the mapping goes)."""
     gc = ops.clamp(g, 1e-5, 1.0)
     return ops.pow((1.0 - gc) / gc, 0.8) / (1.0 + gc)
+
+
+def backward_mean_cosine(ops, g):
+    """Mean cosine, about the backward direction, of the backward half of a HG phase function:
+    -int_{-1}^0 mu p(mu) dmu / int_{-1}^0 p(mu) dmu in closed form, with a = sqrt(1 + g^2):
+    -(1/g) (a - (1 + g + g^2) / (1 + g)) / (1/a - 1/(1 + g)); 1/2 - g/4 + g^2/4 below |g| = 0.01,
+    where the closed form cancels, 0.414 at g = 0.9, 0.93 at g = -0.9."""
+    a = ops.sqrt(1.0 + g * g)
+    small = ops.abs(g) < 0.01
+    gs = ops.select(small, 0.5, g)  # keeps the unused branch finite
+    one = 1.0 + gs
+    closed = -(a - (1.0 + gs + gs * gs) / one) / (gs * (1.0 / a - 1.0 / one))
+    return ops.select(small, 0.5 - 0.25 * g * (1.0 - g), closed)

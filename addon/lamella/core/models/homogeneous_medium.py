@@ -27,7 +27,7 @@ then absorbed as if sigma_a were 4e-5, and R + T fell short of 1 by 2e-5 relativ
 """
 from __future__ import annotations
 
-from .hg import backscatter_fraction
+from .hg import backscatter_fraction, backward_mean_cosine
 
 SERIES_BELOW = 1e-3  # gamma h' below which D uses its series h' (1 - x + 2 x^2 / 3)
 
@@ -53,14 +53,19 @@ def slab(ops, sigma_a, sigma_s, g, h, asymmetry: bool = False):
 
     Energies (``asymmetry=False``, Eq. 33): tau_f = sigma_s (1 - p-(g)), rho_b = sigma_s p-(g),
     so alpha = sigma_a + rho_b and alpha - beta = sigma_a. Unnormalised asymmetries
-    (``asymmetry=True``, Eq. 34): tau_f g and -rho_b g, so alpha = sigma_a + sigma_s - g tau_f,
-    alpha - beta = sigma_a + sigma_s - g (tau_f - rho_b)."""
+    (``asymmetry=True``, Eq. 34): tau_f g and -rho_b g_b, so alpha = sigma_a + sigma_s - g tau_f,
+    alpha - beta = sigma_a + sigma_s - g tau_f + g_b rho_b. Eq. 34 gives the back-scattered flux
+    the asymmetry g itself, as sharp about the retro-direction as the forward lobe is about the
+    forward one; the backward half of a HG lobe is nearly flat for g > 0, so g_b is its own mean
+    cosine (``hg.backward_mean_cosine``: 0.41 for g = 0.9). Measured: tm6 mean relative L1 on
+    green_scatter_d6 1.28 -> 0.96, fog_g09_d4 0.36 -> 0.33, fog_g0 0.33 -> 0.34."""
     sb = sigma_s * backscatter_fraction(ops, g)
     sf = sigma_s - sb
     sigma_t = sigma_a + sigma_s
     if asymmetry:
-        alpha, beta = sigma_a + sigma_s - g * sf, -g * sb
-        r, t = kubelka_munk(ops, alpha, beta, h, sigma_a + sigma_s - g * (sf - sb))
+        gb = backward_mean_cosine(ops, g)
+        alpha, beta = sigma_a + sigma_s - g * sf, -gb * sb
+        r, t = kubelka_munk(ops, alpha, beta, h, sigma_a + sigma_s - g * sf + gb * sb)
     else:
         r, t = kubelka_munk(ops, sigma_a + sb, sb, h, sigma_a)
     return ops.exp(-sigma_t * h), r, t
