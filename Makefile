@@ -24,24 +24,35 @@ test: setup
 bench-accuracy: setup
 	$(VENV)/bin/lamella bench accuracy
 
-# The stored BRDF references (about 50 min on 2 cores): cases with a narrow exit interface need
-# more walkers to keep the noise floor of bench/accuracy.md below 0.1.
+# The stored BRDF references (about 50 min on 2 cores for the interface cases, 4-12 min more per
+# medium case on one core): cases with a narrow exit interface need more walkers to keep the noise
+# floor of bench/accuracy.md below 0.1.
+MEDIA_REST := fog_g09_d1,fog_g09_d4,fog_g0,fog_g03,fog_g07,fog_g05_d4,milky_coat_d01,milky_coat_d2,green_scatter_d1,green_scatter_d6
+MEDIA_CASES := fog_g09_d01,$(MEDIA_REST)
+NEW_INTERFACE_CASES := absorbing_rough_coat,varnished_wood,rough_glass_plate,thin_coat_rough_base,endf_thin_gold,endf_absorbing_gold,endf_rough_over_mirror_gold
 references: setup
 	$(VENV)/bin/lamella references --cases frosted_metal,three_coats,rough_coat_over_mirror --spp 8192
 	$(VENV)/bin/lamella references --cases gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,tinted_varnish,opposing_anisotropy --spp 32768
+	$(VENV)/bin/lamella references --cases $(MEDIA_CASES),$(NEW_INTERFACE_CASES) --spp 32768
 
 # BRDF references of the cases awaiting image references (PENDING.json: media, diffuse and glass
 # bases, ENDF-sized coats), 4-12 min each on one core; run two halves in parallel on 2 cores.
 PENDING := $(shell $(PYTHON) -c "import json; print(','.join(json.load(open('addon/lamella/data/stacks/PENDING.json'))))")
 references-pending: setup
-	$(VENV)/bin/lamella references --cases $(PENDING) --spp 32768 --out tests/references/brdf_pending
+	@if [ -n "$(PENDING)" ]; then \
+		$(VENV)/bin/lamella references --cases $(PENDING) --spp 32768 --out tests/references/brdf_pending; \
+	else echo "no case awaits its image references (PENDING.json is empty)"; fi
 
-# The stored image references (tests/references/images): every suite stack as nested interface
-# spheres, path traced at 128 px; 2048 spp per pass (about 40 min on 2 cores), refined by a
-# second pass. `make bench-images` then re-measures bench/images.md against them.
+# The stored image references (tests/references/images): every suite stack as nested spheres, path
+# traced at 128 px; the interface cases at 2048 spp per pass (about 40 min on 2 cores), refined by a
+# second pass; the media cases at 1024 spp (256 bounces: 2-7 min each), the newer interface cases
+# at 1024 refined once. `make bench-images` then re-measures bench/images.md against them.
 image-references: setup
-	$(VENV)/bin/lamella image-references --spp 2048
-	$(VENV)/bin/lamella image-references --spp 2048 --add
+	$(VENV)/bin/lamella image-references --spp 2048 --cases frosted_metal,gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,three_coats,tinted_varnish,rough_coat_over_mirror,opposing_anisotropy
+	$(VENV)/bin/lamella image-references --spp 2048 --add --cases frosted_metal,gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,three_coats,tinted_varnish,rough_coat_over_mirror,opposing_anisotropy
+	$(VENV)/bin/lamella image-references --spp 2048 --cases fog_g09_d01
+	$(VENV)/bin/lamella image-references --spp 1024 --cases $(MEDIA_REST),$(NEW_INTERFACE_CASES)
+	$(VENV)/bin/lamella image-references --spp 1024 --add --cases $(NEW_INTERFACE_CASES)
 
 bench-images: setup
 	$(VENV)/bin/lamella bench images
