@@ -30,10 +30,13 @@ bench-accuracy: setup
 MEDIA_REST := fog_g09_d1,fog_g09_d4,fog_g0,fog_g03,fog_g07,fog_g05_d4,milky_coat_d01,milky_coat_d2,green_scatter_d1,green_scatter_d6
 MEDIA_CASES := fog_g09_d01,$(MEDIA_REST)
 NEW_INTERFACE_CASES := absorbing_rough_coat,varnished_wood,rough_glass_plate,thin_coat_rough_base,endf_thin_gold,endf_absorbing_gold,endf_rough_over_mirror_gold
+NEW_CASES_32K := absorbing_rough_coat,varnished_wood,endf_absorbing_gold,endf_rough_over_mirror_gold
 references: setup
 	$(VENV)/bin/lamella references --cases frosted_metal,three_coats,rough_coat_over_mirror --spp 8192
 	$(VENV)/bin/lamella references --cases gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,tinted_varnish,opposing_anisotropy --spp 32768
-	$(VENV)/bin/lamella references --cases $(MEDIA_CASES),$(NEW_INTERFACE_CASES) --spp 32768
+	$(VENV)/bin/lamella references --cases $(MEDIA_CASES),$(NEW_CASES_32K) --spp 32768
+	$(VENV)/bin/lamella references --cases thin_coat_rough_base,rough_glass_plate --spp 65536
+	$(VENV)/bin/lamella references --cases endf_thin_gold --spp 131072
 
 # BRDF references of the cases awaiting image references (PENDING.json: media, diffuse and glass
 # bases, ENDF-sized coats), 4-12 min each on one core; run two halves in parallel on 2 cores.
