@@ -18,7 +18,7 @@ from typing import Callable
 from . import luts
 from .luts import REFRACT_ETA
 from .models.fgd import gd
-from .models.ggx import ALPHA_EVAL_MIN, ggx_lobe_cos
+from .models.ggx import ALPHA_EVAL_MIN, ggx_lobe_cos, smith_s
 from .models.variance import rms_alpha
 
 GD_FLOOR = 1e-6  # GD is >= 0.2 for every alpha <= 1 at wi.z >= 0; the floor only guards wi.z < 0
@@ -99,8 +99,10 @@ def _refracted_mirror(ops, lobe, wi):
     (a stack of parallel interfaces refracts as one interface); cos_t = 0 beyond total internal
     reflection (the lobe then carries no energy)."""
     inv = 1.0 / lobe.eta
-    tx, ty = wi[0] * inv, wi[1] * inv
-    return tx, ty, ops.sqrt(ops.max(1.0 - tx * tx - ty * ty, 0.0))
+    # cos_t^2 = (eta^2 - 1 + cos_i^2) / eta^2: exact for a plate (eta = 1) at grazing, where the
+    # form 1 - |t_xy|^2 cancels
+    cos2 = (lobe.eta * lobe.eta - 1.0 + wi[2] * wi[2]) * (inv * inv)
+    return wi[0] * inv, wi[1] * inv, ops.sqrt(ops.max(cos2, 0.0))
 
 
 def _transmission_alpha(ops, lobe):
@@ -157,8 +159,8 @@ def _transmission_closure_cos(ops, lobe, wi, wo):
     c_i = wi[0] * n[0] + wi[1] * n[1] + wi[2] * n[2]
     c_o = wo[0] * n[0] + wo[1] * n[1] + wo[2] * n[2]
     abs_o = ops.abs(c_o)
-    s_i = ops.sqrt(c_i * c_i + a2 * (1.0 - c_i * c_i))
-    s_o = ops.sqrt(c_o * c_o + a2 * (1.0 - c_o * c_o))
+    s_i = smith_s(ops, c_i, a2 * (1.0 - c_i * c_i))
+    s_o = smith_s(ops, c_o, a2 * (1.0 - c_o * c_o))
     g2_over_ci = 2.0 * abs_o / ops.max(abs_o * s_i + c_i * s_o, 1e-30)
     value = d * (eta * eta) * ops.abs(h_i * h_o) / (l2 * l2) * g2_over_ci
     return ops.select(wo[2] < 0.0, ops.select(c_o < 0.0, value, 0.0), 0.0)

@@ -37,10 +37,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .diffuse_transport import DiffuseUp, diffuse_transmittance
+from .diffuse_transport import DiffuseUp
+from .diffuse_transport import interior as diffuse_interior
 from .fgd import fgd_dielectric, tir_fraction
 from .hg import belcour_variance_of_g
-from .homogeneous_medium import slab
 from .rgb import RGB
 
 COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
@@ -133,11 +133,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
             T0i, Ti0, Ri0 = T0i * t, Ti0 * t, Ri0 * t * t
             A0i = A0i * t
             if diffuse_up is not None:
-                if "sigma_s" in p:  # diffuse light: Kubelka-Munk over twice the thickness, as tm6
-                    kd = [slab(ops, sa, ss, p["g"], 2.0 * p["thickness"]) for sa, ss in zip(sig_a, p["sigma_s"])]
-                    diffuse_up.add_medium(ops, RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd)))
-                else:
-                    diffuse_up.add_medium(ops, sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"])))
+                diffuse_up.add_medium(ops, *diffuse_interior(ops, p))
 
     ops.set_scope("base")
     index = len(coats)
@@ -218,6 +214,8 @@ def _add_interface(ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12,
     if variant.tir and index > 0:
         spread_up = mapping.to_roughness(ops, (s_t0i + s_r12).mean())
         tir = tir_fraction(ops, sx, sy, n_above, spread_up)
+        # the trapped light crosses the absorbing interiors above once more on its way back down
+        # (Ti0 holds the way up); the TIR reflection itself loses nothing
         Ri0_seen = Ri0 + Ti0 * A0i * (1.0 - tir)
         Ti0_seen = Ti0 * tir
     m_R0i = T0i * R12 * Ti0_seen / (1.0 - Ri0_seen * R12).map(lambda d: ops.max(d, 1e-7))

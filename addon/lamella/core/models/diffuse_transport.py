@@ -11,7 +11,9 @@ Each coat is summarised for such light by hemispherical averages of its energies
   nodes' hat functions, exact for the piecewise-linear Fresnel curve); the interface roughness is
   neglected (it redistributes diffuse light but hardly changes its hemispherical average);
 * an absorbing interior of optical depth tau (normal incidence): T_d(tau) = 2 E3(tau) =
-  integral of exp(-tau / mu) 2 mu d mu, by 8-point Gauss-Legendre quadrature.
+  integral of exp(-tau / mu) 2 mu d mu, by 8-point Gauss-Legendre quadrature;
+* a scattering interior: the Kubelka-Munk slab of the six-flux model (``homogeneous_medium``) over
+  twice the thickness, the mean path of cosine-distributed light.
 
 ``DiffuseUp`` adds these from the top coat down, keeping what the base needs: the transmittance
 ``up`` of the whole stack above for diffuse light going up, and its reflectance ``back`` (light
@@ -66,6 +68,18 @@ def diffuse_transmittance(ops, tau):
     for mu, w in zip(GAUSS_MU, GAUSS_W):
         total = total + (w * 2.0 * mu) * ops.exp(-tau * (1.0 / mu))
     return total
+
+
+def interior(ops, p) -> tuple[RGB, RGB | None]:
+    """Diffuse transmittance and (if it scatters) reflectance of a coat's interior, from its
+    backend parameters ``p`` (``thickness``, ``sigma_a``, ``sigma_s``, ``g``)."""
+    from .homogeneous_medium import slab
+
+    sig_a = p.get("sigma_a", RGB.splat(0.0))
+    if "sigma_s" not in p:
+        return sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"])), None
+    kd = [slab(ops, sa, ss, p["g"], 2.0 * p["thickness"]) for sa, ss in zip(sig_a, p["sigma_s"])]
+    return RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd))
 
 
 class DiffuseUp:

@@ -77,7 +77,7 @@ def v_from_one_minus_a3(ops, u):
     q = ops.exp(-2.0 * ops.min(kappa, 1e4))
     f = v0 - 2.0 * q / (1.0 - q) - u
     df = 1.0 - 4.0 * q * kappa * kappa / ((1.0 - q) * (1.0 - q))
-    refined = v0 - f / ops.max(df, 0.5)
+    refined = v0 - f / ops.max(df, 0.5)  # df >= 0.7 where kept (kappa > 2); the floor guards the other lane
     return ops.select(kappa > 2.0, ops.max(refined, 0.0), v0)
 
 
@@ -98,6 +98,19 @@ def alpha_to_v(ops, alpha):
 
 def v_to_alpha(ops, v):
     return ops.min(ops.sqrt(2.0 * ops.max(v, 0.0)), 1.0)
+
+
+def _refracted_cos(ops, mu, eta):
+    """Cosine of the direction refracted from cosine mu into relative index eta, from
+    (eta^2 - 1 + mu^2) / eta^2 (no cancellation for eta near 1); floored under total internal
+    reflection, where the lobes below carry no energy."""
+    return ops.sqrt(ops.max((eta * eta - 1.0 + mu * mu) / (eta * eta), 1e-8))
+
+
+def _cos_difference(ops, mu, eta, c):
+    """mu - eta c, written (1 - eta^2) / (mu + eta c): exactly 0 for an index-matched interface,
+    where the difference of the two cosines cancels."""
+    return (1.0 - eta * eta) / (mu + eta * c)
 
 
 class ENDF:
@@ -133,12 +146,11 @@ def endf(ops, stack, wi) -> list[Lobe]:
     ops.set_scope("endf")
     mu = ops.clamp(wi[2], 1e-4, 1.0)
     eta = coat["ior"]
-    c2 = 1.0 - (1.0 - mu * mu) / (eta * eta)
-    c = ops.sqrt(ops.max(c2, 1e-8))  # under total internal reflection the lobes below carry no energy
+    c = _refracted_cos(ops, mu, eta)
     v1, v2 = alpha_to_v(ops, coat["ax"]), alpha_to_v(ops, base["ax"])
 
     # Eq. 26: the exit direction of the one-bounce path, then Eq. 19 back to an NDF
-    d_in = mu - eta * c
+    d_in = _cos_difference(ops, mu, eta, c)
     v_exit = convolve(ops, v1 * d_in * d_in / mu, v2 * 4.0 * eta * eta * c * c / mu, v1 * d_in * d_in / mu)
     sub = v_to_alpha(ops, v_exit / (4.0 * mu))
     out = [Lobe(lobes[0].weight, coat["ax"], coat["ax"], 0.0), Lobe(lobes[1].weight, sub, sub, 0.0)]
@@ -146,9 +158,8 @@ def endf(ops, stack, wi) -> list[Lobe]:
         # Eqs. 23-24: through the coat and the substrate (index n2, refracted cosine c_2)
         n2 = base["ior"]
         e12 = n2 / eta
-        c2_2 = 1.0 - (1.0 - c * c) / (e12 * e12)
-        cs = ops.sqrt(ops.max(c2_2, 1e-8))
-        d_base = c - e12 * cs
+        cs = _refracted_cos(ops, c, e12)
+        d_base = _cos_difference(ops, c, e12, cs)
         v_t = convolve(ops, v1 * d_in * d_in / (n2 * n2 * cs), v2 * d_base * d_base / (e12 * e12 * cs))
         at = transmission_alpha_of_spread(ops, v_to_alpha(ops, v_t))
         out.append(Lobe(lobes[2].weight, at, at, 0.0, "transmission", n2))

@@ -48,7 +48,8 @@ from dataclasses import dataclass
 
 from . import hg
 from .adding_doubling import COS_FLOOR, Lobe, UnsupportedStack, layer_params
-from .diffuse_transport import DiffuseUp, diffuse_transmittance
+from .diffuse_transport import DiffuseUp
+from .diffuse_transport import interior as diffuse_interior
 from .fgd import fgd_dielectric, tir_fraction
 from .homogeneous_medium import slab
 from .rgb import RGB
@@ -285,8 +286,8 @@ def _interface(ops, cti, alpha, n12, g1):
 
 
 def _next_alpha(ops, coats, base, index):
-    """Roughness of the interface below coat ``index`` (the next coat's top or the base's); a
-    Lambertian base sends up light of asymmetry 0, i.e. roughness 1."""
+    """Roughness of the interface below coat ``index`` (the next coat's top or the base's); for a
+    Lambertian base 1, the broadest lobe of the g <-> alpha fit (its light is broader still)."""
     if index + 1 < len(coats):
         nxt = coats[index + 1]
         return rms_alpha(ops, nxt["ax"], nxt["ay"])
@@ -314,9 +315,9 @@ def _medium(ops, p, mu, n: int):
     cosine-distributed light)."""
     h = p["thickness"] / ops.max(mu, COS_FLOOR)
     sig_a = p.get("sigma_a", RGB.splat(0.0))
+    t_d, r_d = diffuse_interior(ops, p)
     if "sigma_s" not in p:  # absorption only: every family decays alike, nothing is scattered
         t = sig_a.map(lambda s: ops.exp(-s * h))
-        t_d = sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"]))
         return (Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n)), t_d, None)
     sig_s, g = p["sigma_s"], p["g"]
     e = [slab(ops, sa, ss, g, h) for sa, ss in zip(sig_a, sig_s)]
@@ -328,7 +329,4 @@ def _medium(ops, p, mu, n: int):
         rt = {(B, P): r, (B, F): r, (F, B): r}
         return Component(rt, td, dict(rt), dict(td))
 
-    # diffuse light from a Lambertian base: Kubelka-Munk over twice the thickness
-    kd = [slab(ops, sa, ss, g, 2.0 * p["thickness"]) for sa, ss in zip(sig_a, sig_s)]
-    r_d, t_d = RGB(*(x[1] for x in kd)), RGB(*(x[2] for x in kd))
     return comp(e), comp(a), t_d, r_d
