@@ -90,3 +90,10 @@ def test_packed_atlas_holds_the_same_values_as_the_table():
         for k in range(n2):
             g, c = divmod(k, 4)
             np.testing.assert_array_equal(px[g * n0:(g + 1) * n0, :, c], t[:, :, k])
+
+
+@pytest.mark.parametrize("name", sorted(luts.SPECS))
+def test_numpy_archive_holds_the_exr_tables(name):
+    """The numpy backend reads tables.npz (inside Blender there is no OpenEXR package); the OSL
+    shaders read the EXR files: both must hold the same float32 values."""
+    np.testing.assert_array_equal(luts.table(name), luts.read_exr_table(name))

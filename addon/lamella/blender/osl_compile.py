@@ -20,8 +20,17 @@ class OSLCompileError(RuntimeError):
     """The OSL compiler rejected a shader; the message quotes the offending lines."""
 
 
+_cache_root: Path | None = None
+
+
+def set_cache_root(path) -> None:
+    """Where compiled shaders are cached (the installed extension: its user folder)."""
+    global _cache_root
+    _cache_root = Path(path) if path is not None else None
+
+
 def cache_dir() -> Path:
-    base = os.environ.get("LAMELLA_CACHE") or os.path.join(
+    base = _cache_root or os.environ.get("LAMELLA_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "lamella")
     d = Path(base) / "oso"
     d.mkdir(parents=True, exist_ok=True)
@@ -87,10 +96,15 @@ def compile_source(source: str, name: str = "shader") -> Path:
 def assign_script(node, text, source: str, name: str = "shader") -> None:
     """Make Script ``node`` run ``source``: INTERNAL mode on ``text`` (which receives the source),
     bytecode from the cache, one socket per shader parameter (Cycles' own socket rules)."""
+    assign_compiled(node, text, source, compile_source(source, name))
+
+
+def assign_compiled(node, text, source: str, oso: Path) -> None:
+    """``assign_script`` for a shader already compiled to ``oso``. Every input socket takes its
+    parameter's default: a socket kept from an earlier shader (and its links) gets the new value."""
     import cycles.osl
     import oslquery
 
-    oso = compile_source(source, name)
     text.clear()
     text.write(source)
     node.mode = "INTERNAL"
@@ -100,12 +114,15 @@ def assign_script(node, text, source: str, name: str = "shader") -> None:
     node.bytecode_hash = hashlib.md5(bytecode.encode(), usedforsecurity=False).hexdigest()
     query = oslquery.OSLQuery(str(oso))
     if not query:
-        raise OSLCompileError(f"OSL query failed to read the compiled {name} ({oso})")
+        raise OSLCompileError(f"OSL query failed to read the compiled shader {oso}")
     used = set()
     for param in query.parameters:
         sock = cycles.osl.shader_param_ensure(node, param)
         if sock is not None:
             used.add(sock)
+            if not param.isoutput and param.value is not None and not param.isclosure:
+                value = param.value
+                sock.default_value = value if isinstance(value, (str, int, float)) else tuple(value)
     for sockets in (node.inputs, node.outputs):
         for identifier in [s.identifier for s in sockets]:
             if sockets[identifier] not in used:

@@ -145,12 +145,9 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
     as in ``build_scene``; ``model`` the layered model of the cycles-osl shader."""
-    import tempfile
-
-    from ..core.exr import read_rgba, write_rgba
+    from ..core.exr import write_rgba
     from ..core.stack import Stack
 
-    bpy = _bpy()
     stack = Stack.coerce(stack)
     sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed, open_back=open_back)
     if filter_width is not None:
@@ -161,14 +158,24 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
         build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS)
     else:
         assign_material(sphere, stack, engine, model)
+    px, seconds = render_scene(sc)
+    if out is not None:
+        write_rgba(out, px)
+    return px, seconds
+
+
+def render_scene(sc):
+    """Render scene ``sc`` as it is set up: (RGBA float32 array, top row first; render seconds)."""
+    import tempfile
+
+    from ..core.exr import read_rgba
+
+    bpy = _bpy()
     with tempfile.TemporaryDirectory() as tmp:
         sc.render.image_settings.file_format = "OPEN_EXR"
         sc.render.image_settings.color_depth = "32"
         sc.render.filepath = str(Path(tmp) / "render.exr")
         t0 = time.time()
-        bpy.ops.render.render(write_still=True)
+        bpy.ops.render.render(write_still=True, scene=sc.name)
         seconds = time.time() - t0
-        px = read_rgba(Path(tmp) / "render.exr")
-    if out is not None:
-        write_rgba(out, px)
-    return px, seconds
+        return read_rgba(Path(tmp) / "render.exr"), seconds

@@ -24,7 +24,10 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
 
 Axes are normalised to [0, 1] for look-ups; the node positions are given by the axis maps below.
 Tables are written as ZIP-compressed float32 EXR in ``lamella/data/luts`` (3D tables as an atlas of
-slices of the last axis stacked vertically) by ``lamella luts``.
+slices of the last axis stacked vertically) by ``lamella luts``: the files the OSL shaders read.
+The same float32 values go into ``tables.npz`` beside them, which is what the numpy backend loads:
+inside Blender only numpy is certain to be there (no OpenEXR package), and an ``.npz`` needs nothing
+else.
 """
 from __future__ import annotations
 
@@ -92,15 +95,27 @@ SPECS = {
 PACKED = {"fresnel_hat_delta": "fresnel_hat_delta_rgba.exr"}
 PACKED_CHANNELS = ("R", "G", "B", "A")
 
+NPZ_FILE = "tables.npz"  # every table of SPECS, float32, what table() loads
+
 _cache: dict[str, np.ndarray] = {}
 
 
 def table(name: str) -> np.ndarray:
-    """The named table as a float32 array of its spec's shape (loaded once)."""
+    """The named table as a float32 array of its spec's shape (loaded once, from ``tables.npz``)."""
     if name not in _cache:
-        spec = SPECS[name]
-        _cache[name] = _read_table(DATA_DIR / spec.file, spec.channel, spec.shape)
+        path = DATA_DIR / NPZ_FILE
+        if not path.exists():
+            raise FileNotFoundError(f"look-up tables {path} are missing: run `lamella luts` to generate them")
+        with np.load(path) as npz:
+            for key in SPECS:
+                _cache[key] = np.ascontiguousarray(npz[key], dtype=np.float32).reshape(SPECS[key].shape)
     return _cache[name]
+
+
+def read_exr_table(name: str, directory: Path = DATA_DIR) -> np.ndarray:
+    """The named table as stored in its EXR file (what the OSL shaders read; needs OpenEXR)."""
+    spec = SPECS[name]
+    return _read_table(directory / spec.file, spec.channel, spec.shape)
 
 
 def _read_table(path: Path, channel: str, shape) -> np.ndarray:
@@ -168,6 +183,8 @@ def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> lis
         with OpenEXR.File(header, channels) as f:
             f.write(str(out_dir / fname))
         written.append(out_dir / fname)
+    np.savez_compressed(out_dir / NPZ_FILE, **{k: v.astype(np.float32) for k, v in tables.items()})
+    written.append(out_dir / NPZ_FILE)
     _cache.clear()
     written += write_packed(out_dir, {k: v.astype(np.float32) for k, v in tables.items()})
     return written

@@ -10,18 +10,20 @@ from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, layer_kind
 
 FIELDS = (
     Field("ior", FLOAT, 1.5, "index of refraction of the coat's interior (absolute)", "",
-          lo=0.0, lo_open=True, soft=(1.0, 3.0)),
+          lo=0.0, lo_open=True, soft=(1.0, 3.0), label="IOR"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the top interface: a number or [alpha_x, alpha_y]",
           "GGX alpha", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the interface's anisotropy axes about the normal", "rad",
           soft=(-3.141592653589793, 3.141592653589793)),
-    Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, soft=(0.0, 10.0)),
+    Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, soft=(0.0, 10.0),
+          group="Medium"),
     Field("sigma_a", RGB, [0.0, 0.0, 0.0], "absorption coefficient of the interior", "1/length",
-          lo=0.0, soft=(0.0, 10.0)),
+          lo=0.0, soft=(0.0, 10.0), label="Absorption", group="Medium"),
     Field("sigma_s", RGB, [0.0, 0.0, 0.0], "scattering coefficient of the interior", "1/length",
-          lo=0.0, soft=(0.0, 10.0)),
+          lo=0.0, soft=(0.0, 10.0), label="Scattering", group="Medium"),
     Field("g", FLOAT, 0.0, "Henyey-Greenstein asymmetry of the interior's scattering", "",
-          lo=-1.0, hi=1.0, lo_open=True, hi_open=True, soft=(-0.99, 0.99)),
+          lo=-1.0, hi=1.0, lo_open=True, hi_open=True, soft=(-0.99, 0.99), label="Phase Asymmetry g",
+          group="Medium"),
 )
 
 

@@ -7,9 +7,9 @@ from .schema import ANGLE, RGB, ROUGHNESS, Field, layer_kind
 
 FIELDS = (
     Field("eta", RGB, [0.143, 0.374, 1.442], "real part of the complex index of refraction (absolute)", "",
-          lo=0.0, lo_open=True, soft=(0.01, 5.0)),
+          lo=0.0, lo_open=True, soft=(0.01, 5.0), label="IOR (n)"),
     Field("k", RGB, [3.983, 2.385, 1.603], "extinction coefficient: imaginary part of the index", "",
-          lo=0.0, soft=(0.0, 10.0)),
+          lo=0.0, soft=(0.0, 10.0), label="Extinction (k)"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha: a number or [alpha_x, alpha_y]", "GGX alpha",
           lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",

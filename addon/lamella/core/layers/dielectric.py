@@ -9,7 +9,7 @@ from ..models.rgb import RGB as RGBValue
 
 FIELDS = (
     Field("ior", FLOAT, 1.5, "index of refraction of the substrate (absolute)", "", lo=0.0, lo_open=True,
-          soft=(1.0, 3.0)),
+          soft=(1.0, 3.0), label="IOR"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the interface: a number or [alpha_x, alpha_y]", "GGX alpha",
           lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",

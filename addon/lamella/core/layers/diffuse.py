@@ -6,7 +6,8 @@ from .params import BaseResponse, rgb_param
 from .schema import RGB, Field, layer_kind
 
 FIELDS = (
-    Field("albedo", RGB, [0.8, 0.8, 0.8], "Lambertian reflectance", "", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
+    Field("albedo", RGB, [0.8, 0.8, 0.8], "Lambertian reflectance", "", lo=0.0, hi=1.0, soft=(0.0, 1.0), label="Color",
+          color=True),
 )
 
 

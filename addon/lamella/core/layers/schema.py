@@ -37,7 +37,10 @@ class Field:
     """One field of a layer kind.
 
     ``lo``/``hi`` are hard limits (``None``: unbounded); ``lo_open``/``hi_open`` make them strict.
-    ``soft`` is the (lo, hi) range a UI slider offers. ``unit`` is shown next to the value."""
+    ``soft`` is the (lo, hi) range a UI slider offers. ``unit`` is shown next to the value.
+    ``label`` is the name a user interface shows (default: the field name in title case),
+    ``color`` marks an RGB field that is a reflectance (a colour picker makes sense), and
+    ``group`` names the collapsible part of a panel the field belongs to ("" : the main part)."""
 
     name: str
     type: str
@@ -49,6 +52,13 @@ class Field:
     lo_open: bool = False
     hi_open: bool = False
     soft: tuple[float, float] | None = None
+    label: str = ""
+    color: bool = False
+    group: str = ""
+
+    @property
+    def ui_label(self) -> str:
+        return self.label or self.name.replace("_", " ").title()
 
     def limits_text(self) -> str:
         lo = "-inf" if self.lo is None else f"{self.lo:g}"

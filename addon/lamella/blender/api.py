@@ -1,0 +1,61 @@
+"""The Blender-side batch API (DESIGN.md "Contract: the Blender-side batch API"), re-exported by
+the extension's top-level module: ``apply_stack(material, stack)`` and ``read_stack(material)``.
+
+``apply_stack`` validates and compiles before it touches the material: a bad stack raises
+``StackError`` (naming the layer and field), a forced model that cannot run the stack raises
+``UnsupportedStack``, and in both cases the material is left exactly as it was.
+"""
+from __future__ import annotations
+
+import json
+
+from ..core.stack import Stack, StackError
+
+
+def apply_stack(material, stack, model: str | None = None):
+    """Make ``material`` a Lamella material showing ``stack`` (a Stack, dict or JSON text),
+    optionally forcing ``model`` (default: the material's model setting, "auto" for a new one).
+    Builds or updates its nodes; returns the material."""
+    import time
+
+    from . import recompile
+    from .stack_props import write_stack
+
+    t0 = time.perf_counter()
+    stack = Stack.coerce(stack)
+    if material.library is not None:
+        raise StackError("stack", None, f"material {material.name!r} is linked from {material.library.filepath}: "
+                                        "edit it in its own file, or make it local first")
+    settings = material.lamella
+    if model is None:
+        model = settings.model if settings.enabled else "auto"
+    built = recompile.build_shader(stack, model)  # raises before anything changes
+    with recompile.suspended():
+        write_stack(settings, stack)
+        settings.model = model
+        settings.enabled = True
+    recompile.install(material, stack, built, t0)
+    return material
+
+
+def read_stack(material) -> dict | None:
+    """The stack ``material`` renders (muted layers left out) as a dict, or None for a material
+    Lamella does not build."""
+    from .stack_props import stack_dict
+
+    settings = getattr(material, "lamella", None)
+    if settings is None or not settings.enabled:
+        return None
+    d = stack_dict(settings)
+    try:
+        return Stack.from_dict(d).to_dict()
+    except StackError:
+        return d
+
+
+def read_stack_json(material, indent: int | None = 2) -> str | None:
+    d = read_stack(material)
+    return None if d is None else json.dumps(d, indent=indent)
+
+
+__all__ = ["apply_stack", "read_stack", "read_stack_json", "StackError"]

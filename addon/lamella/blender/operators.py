@@ -1,0 +1,467 @@
+"""Operators (``bpy.ops.lamella.*``): layers, presets, import/export, compile, render settings.
+
+Every operator acts on the context's material (the Properties editor's, else the active
+object's) or on the material named by its ``material`` property, so that each one works from a
+script in background mode. All are undoable, have a description and a poll, report problems
+through ``self.report`` and never raise into Blender's interface; a failed action leaves the
+material as it was.
+"""
+from __future__ import annotations
+
+import bpy
+from bpy.props import EnumProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from ..core.stack import MAX_COATS, Stack, StackError
+
+
+def context_material(context):
+    mat = getattr(context, "material", None)
+    if mat is None:
+        ob = getattr(context, "object", None)
+        mat = getattr(ob, "active_material", None) if ob is not None else None
+    return mat
+
+
+class _MaterialOperator:
+    """Mixin: the target material, and errors turned into reports."""
+
+    bl_options = {"REGISTER", "UNDO"}
+    needs_lamella = True  # the material must already be a Lamella material
+
+    material: StringProperty(name="Material", description="Material to act on (default: the context's)",
+                             options={"SKIP_SAVE"})
+
+    @classmethod
+    def poll(cls, context):
+        mat = context_material(context)
+        if mat is None:  # a script naming its material (background mode has no context material)
+            return bool(bpy.data.materials)
+        if mat.library is not None:
+            cls.poll_message_set("The material is linked from another file")
+            return False
+        if cls.needs_lamella and not mat.lamella.enabled:
+            cls.poll_message_set("The material is not a Lamella material")
+            return False
+        return True
+
+    def target(self, context):
+        if self.material:
+            mat = bpy.data.materials.get(self.material)
+            if mat is None:
+                raise LookupError(f"no material named {self.material!r}")
+        else:
+            mat = context_material(context)
+            if mat is None:
+                raise LookupError("no material: select an object with a material, or name one with material=")
+        if mat.library is not None:
+            raise LookupError(f"material {mat.name!r} is linked from another file and cannot be edited")
+        if self.needs_lamella and not mat.lamella.enabled:
+            raise LookupError(f"material {mat.name!r} is not a Lamella material (use Lamella > Enable)")
+        return mat
+
+    def execute(self, context):
+        try:
+            mat = self.target(context)
+            result = self.run(context, mat)
+        except (StackError, LookupError, ValueError, OSError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        except Exception as e:  # never raise into the interface; say what happened
+            self.report({"ERROR"}, f"{type(e).__name__}: {e}")
+            return {"CANCELLED"}
+        return result or {"FINISHED"}
+
+    def compiled(self, mat) -> None:
+        """Compile now and report an error the compile met (the material keeps its last shader)."""
+        from . import recompile
+
+        if not recompile.compile_material(mat):
+            self.report({"WARNING"}, f"{mat.name}: {mat.lamella.status_message}")
+
+
+# ---------------------------------------------------------------- material
+class LAMELLA_OT_material_new(_MaterialOperator, bpy.types.Operator):
+    """Create a new Lamella material from a preset, on the active object if there is one"""
+
+    bl_idname = "lamella.material_new"
+    bl_label = "New Lamella Material"
+    needs_lamella = False
+
+    name: StringProperty(name="Name", default="Lamella")
+    preset: StringProperty(name="Preset", default="lacquered_gold", description="Preset to start from")
+
+    @classmethod
+    def poll(cls, context):
+        return True
+
+    def target(self, context):
+        return None
+
+    def run(self, context, _mat):
+        from ..core import presets
+        from . import api, paths
+
+        stack = presets.find(self.preset, paths.user_presets_dir()).load()
+        mat = bpy.data.materials.new(self.name)
+        try:
+            api.apply_stack(mat, stack)
+        except Exception:
+            bpy.data.materials.remove(mat)
+            raise
+        ob = getattr(context, "object", None)
+        if ob is not None and getattr(ob, "data", None) is not None and hasattr(ob.data, "materials"):
+            if ob.material_slots and ob.active_material is None:
+                ob.active_material = mat
+            else:
+                ob.data.materials.append(mat)
+                ob.active_material_index = len(ob.material_slots) - 1
+        self.report({"INFO"}, f"created {mat.name}")
+
+
+class LAMELLA_OT_enable(_MaterialOperator, bpy.types.Operator):
+    """Make this material a Lamella material (its own nodes stay; a Cycles output is added)"""
+
+    bl_idname = "lamella.enable"
+    bl_label = "Use Lamella"
+    needs_lamella = False
+
+    def run(self, context, mat):
+        from . import api
+
+        if mat.lamella.enabled:
+            self.report({"INFO"}, f"{mat.name} already is a Lamella material")
+            return
+        api.apply_stack(mat, Stack.from_dict({"layers": [{}], "base": {"type": "conductor"}}), "auto")
+
+
+class LAMELLA_OT_disable(_MaterialOperator, bpy.types.Operator):
+    """Stop building this material with Lamella: remove its Lamella nodes (the layer stack is kept)"""
+
+    bl_idname = "lamella.disable"
+    bl_label = "Remove Lamella Nodes"
+
+    def run(self, context, mat):
+        from . import material_nodes
+
+        for node in material_nodes.lamella_nodes(mat):
+            if node is not None:
+                mat.node_tree.nodes.remove(node)
+        mat.lamella.enabled = False
+        mat.lamella.status = "NONE"
+
+
+class LAMELLA_OT_recompile(_MaterialOperator, bpy.types.Operator):
+    """Rebuild the shader from the layer stack now"""
+
+    bl_idname = "lamella.recompile"
+    bl_label = "Recompile"
+
+    def run(self, context, mat):
+        from . import recompile
+
+        if not recompile.compile_material(mat):
+            self.report({"ERROR"}, f"{mat.name}: {mat.lamella.status_message}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{mat.name}: compiled ({mat.lamella.picked_model}, {mat.lamella.compile_ms:.0f} ms)")
+
+
+# ---------------------------------------------------------------- layers
+_TEMPLATE_ITEMS: list = []
+
+
+def template_items(self=None, context=None):
+    if not _TEMPLATE_ITEMS:
+        from ..core import presets
+
+        _TEMPLATE_ITEMS.extend((t["id"], t["label"], t["description"], t.get("icon", "NONE"), i)
+                               for i, t in enumerate(presets.layer_templates()))
+    return _TEMPLATE_ITEMS
+
+
+class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
+    """Add a coat above the active layer"""
+
+    bl_idname = "lamella.layer_add"
+    bl_label = "Add Layer"
+
+    template: EnumProperty(name="Layer", description="What kind of coat to add", items=template_items)
+
+    def run(self, context, mat):
+        from ..core import presets
+        from ..core.layers import COAT_KINDS
+        from . import recompile
+        from .stack_props import write_kind
+
+        s = mat.lamella
+        if len(s.coats) >= MAX_COATS:
+            raise ValueError(f"a stack holds at most {MAX_COATS} coats")
+        t = next(t for t in presets.layer_templates() if t["id"] == self.template)
+        kind = COAT_KINDS[t["layer"].get("type", "coat")]
+        layer = kind.parse(f"template {t['id']}", t["layer"])
+        at = min(s.active_index, len(s.coats)) if len(s.coats) else 0
+        with recompile.suspended():
+            item = s.coats.add()
+            item.kind = kind.type
+            item.name = t["label"]
+            write_kind(kind, item.settings(), layer)
+            s.coats.move(len(s.coats) - 1, at)
+            s.active_index = at
+        self.compiled(mat)
+
+
+class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
+    """Remove the active layer"""
+
+    bl_idname = "lamella.layer_remove"
+    bl_label = "Remove Layer"
+
+    @classmethod
+    def poll(cls, context):
+        if not super().poll(context):
+            return False
+        mat = context_material(context)
+        return mat is None or len(mat.lamella.coats) > 0
+
+    def run(self, context, mat):
+        from . import recompile
+
+        s = mat.lamella
+        if not s.coats:
+            raise ValueError("there is no coat to remove (the base stays)")
+        with recompile.suspended():
+            s.coats.remove(min(s.active_index, len(s.coats) - 1))
+            s.active_index = max(0, min(s.active_index, len(s.coats) - 1))
+        self.compiled(mat)
+
+
+class LAMELLA_OT_layer_move(_MaterialOperator, bpy.types.Operator):
+    """Move the active layer up (toward the top) or down (toward the base)"""
+
+    bl_idname = "lamella.layer_move"
+    bl_label = "Move Layer"
+
+    direction: EnumProperty(items=(("UP", "Up", "Toward the top"), ("DOWN", "Down", "Toward the base")))
+
+    def run(self, context, mat):
+        from . import recompile
+
+        s = mat.lamella
+        i = s.active_index
+        j = i - 1 if self.direction == "UP" else i + 1
+        if not (0 <= i < len(s.coats) and 0 <= j < len(s.coats)):
+            return {"CANCELLED"}
+        with recompile.suspended():
+            s.coats.move(i, j)
+            s.active_index = j
+        self.compiled(mat)
+
+
+class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
+    """Duplicate the active layer (the copy goes right above it)"""
+
+    bl_idname = "lamella.layer_duplicate"
+    bl_label = "Duplicate Layer"
+
+    def run(self, context, mat):
+        from . import recompile
+        from .stack_props import copy_layer
+
+        s = mat.lamella
+        if not 0 <= s.active_index < len(s.coats):
+            raise ValueError("select a coat to duplicate")
+        if len(s.coats) >= MAX_COATS:
+            raise ValueError(f"a stack holds at most {MAX_COATS} coats")
+        with recompile.suspended():
+            src = s.active_index
+            item = s.coats.add()
+            copy_layer(s.coats[src], item)
+            s.coats.move(len(s.coats) - 1, src)
+            s.active_index = src
+        self.compiled(mat)
+
+
+# ---------------------------------------------------------------- presets and files
+_PRESET_ITEMS: list = []
+
+
+def preset_items(self=None, context=None):
+    """Built-in presets, then the user's (the list object is kept alive, as Blender requires)."""
+    from ..core import presets
+    from . import paths
+
+    _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
+                        for i, p in enumerate(presets.all_presets(paths.user_presets_dir()))]
+    return _PRESET_ITEMS
+
+
+def _apply_file_stack(op, mat, stack) -> None:
+    from . import api
+
+    api.apply_stack(mat, stack)
+    op.report({"INFO"}, f"{mat.name}: {stack.name or 'stack'} applied ({mat.lamella.picked_model})")
+
+
+class LAMELLA_OT_preset_apply(_MaterialOperator, bpy.types.Operator):
+    """Replace the material's stack by a preset (undo brings the previous stack back)"""
+
+    bl_idname = "lamella.preset_apply"
+    bl_label = "Apply Preset"
+    needs_lamella = False
+
+    preset: EnumProperty(name="Preset", items=preset_items)
+
+    def run(self, context, mat):
+        from ..core import presets
+        from . import paths
+
+        _apply_file_stack(self, mat, presets.find(self.preset, paths.user_presets_dir()).load())
+
+
+class LAMELLA_OT_preset_save(_MaterialOperator, bpy.types.Operator):
+    """Save the material's stack as a user preset"""
+
+    bl_idname = "lamella.preset_save"
+    bl_label = "Save Preset"
+    bl_options = {"REGISTER"}
+
+    name: StringProperty(name="Name", description="Preset name", default="My Stack")
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def run(self, context, mat):
+        from ..core import presets
+        from . import api, paths
+
+        if not self.name.strip():
+            raise ValueError("give the preset a name")
+        path = presets.save_user(paths.user_presets_dir(), self.name.strip(), Stack.from_dict(api.read_stack(mat)))
+        self.report({"INFO"}, f"saved preset {self.name!r} to {path}")
+
+
+class LAMELLA_OT_preset_remove(_MaterialOperator, bpy.types.Operator):
+    """Delete a user preset (built-in presets cannot be removed)"""
+
+    bl_idname = "lamella.preset_remove"
+    bl_label = "Remove Preset"
+    bl_options = {"REGISTER"}
+    needs_lamella = False
+
+    preset: EnumProperty(name="Preset", items=preset_items)
+
+    def target(self, context):
+        return None
+
+    def run(self, context, _mat):
+        from ..core import presets
+        from . import paths
+
+        p = presets.find(self.preset, paths.user_presets_dir())
+        if p.builtin:
+            raise ValueError(f"{p.label!r} is a built-in preset")
+        p.path.unlink()
+        self.report({"INFO"}, f"removed preset {p.label!r}")
+
+
+class LAMELLA_OT_stack_import(_MaterialOperator, bpy.types.Operator, ImportHelper):
+    """Replace the material's stack by one read from a JSON file"""
+
+    bl_idname = "lamella.stack_import"
+    bl_label = "Import Stack"
+    needs_lamella = False
+    filename_ext = ".json"
+
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def run(self, context, mat):
+        try:
+            text = open(self.filepath, encoding="utf-8").read()
+        except OSError as e:
+            raise OSError(f"cannot read {self.filepath}: {e.strerror}") from None
+        _apply_file_stack(self, mat, Stack.from_json(text))
+
+
+class LAMELLA_OT_stack_export(_MaterialOperator, bpy.types.Operator, ExportHelper):
+    """Write the material's stack to a JSON file"""
+
+    bl_idname = "lamella.stack_export"
+    bl_label = "Export Stack"
+    bl_options = {"REGISTER"}
+    filename_ext = ".json"
+
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def run(self, context, mat):
+        from . import api
+
+        text = api.read_stack_json(mat)
+        with open(self.filepath, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+        self.report({"INFO"}, f"wrote {self.filepath}")
+
+
+class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper):
+    """Export the material's shader as a self-contained OSL bundle (shader, tables, README) for
+    another renderer"""
+
+    bl_idname = "lamella.export_osl"
+    bl_label = "Export OSL"
+    bl_options = {"REGISTER"}
+    filename_ext = ".osl"
+
+    filter_glob: StringProperty(default="*.osl", options={"HIDDEN"})
+    target_convention: EnumProperty(
+        name="View Convention",
+        items=(("cycles", "Cycles", "I points toward the viewer (Cycles)"),
+               ("osl-spec", "OSL Specification", "I points toward the surface (the OSL specification)")))
+
+    def run(self, context, mat):
+        from pathlib import Path
+
+        from ..core.backends.osl_bundle import write_bundle
+        from . import api
+
+        out = Path(self.filepath)
+        shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
+                              target=self.target_convention, shader_file=out.name)
+        self.report({"INFO"}, f"wrote {shader} and its tables")
+
+
+# ---------------------------------------------------------------- render settings
+class LAMELLA_OT_fix_render_settings(bpy.types.Operator):
+    """Set the scene up so Lamella's OSL shader renders: Cycles, Open Shading Language on, CPU device"""
+
+    bl_idname = "lamella.fix_render_settings"
+    bl_label = "Use Cycles with OSL on the CPU"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "scene", None) is not None
+
+    def execute(self, context):
+        sc = context.scene
+        sc.render.engine = "CYCLES"
+        sc.cycles.shading_system = True
+        sc.cycles.device = "CPU"
+        self.report({"INFO"}, "Cycles with Open Shading Language on the CPU")
+        return {"FINISHED"}
+
+
+classes = (
+    LAMELLA_OT_material_new, LAMELLA_OT_enable, LAMELLA_OT_disable, LAMELLA_OT_recompile,
+    LAMELLA_OT_layer_add, LAMELLA_OT_layer_remove, LAMELLA_OT_layer_move, LAMELLA_OT_layer_duplicate,
+    LAMELLA_OT_preset_apply, LAMELLA_OT_preset_save, LAMELLA_OT_preset_remove,
+    LAMELLA_OT_stack_import, LAMELLA_OT_stack_export, LAMELLA_OT_export_osl, LAMELLA_OT_fix_render_settings,
+)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

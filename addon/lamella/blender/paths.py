@@ -1,0 +1,34 @@
+"""Where the extension reads and writes: its own data inside the package (read only) and the
+user's folder for caches and user presets (``bpy.utils.extension_path_user``), never the
+extension's folder."""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def extension_package() -> str | None:
+    """``bl_ext.<repo>.<id>`` when running as an installed extension, else None (a development
+    install imported as ``lamella``)."""
+    parts = (__package__ or "").split(".")
+    return ".".join(parts[:3]) if parts[0] == "bl_ext" and len(parts) >= 3 else None
+
+
+def user_dir() -> Path:
+    """The extension's user folder (created): Blender's per-extension folder when installed, a
+    ``lamella`` folder in Blender's user configuration otherwise."""
+    import bpy
+
+    ext = extension_package()
+    if ext is not None:
+        return Path(bpy.utils.extension_path_user(ext, create=True))
+    return Path(bpy.utils.user_resource("CONFIG", path="lamella", create=True))
+
+
+def user_presets_dir() -> Path:
+    d = user_dir() / "presets"
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def cache_dir() -> Path:
+    return user_dir() / "cache"

@@ -1,0 +1,267 @@
+"""The stack a Lamella material holds: PropertyGroups generated from the layer-kind schema
+(``lamella.core.layers``), so names, descriptions, units, limits and defaults are written once.
+
+``Material.lamella`` (:class:`LAMELLA_PG_material`) holds the coats (a collection, top to bottom),
+the base, the model choice and the compile status. Every layer kind gets one PropertyGroup of its
+fields (``LAMELLA_PG_kind_<type>``); a layer item points to one of each kind of its role and its
+``kind`` says which is live, so switching a base from conductor to diffuse and back loses nothing.
+
+Field types map to properties as follows (Blender's conventions at the UI boundary):
+
+- ``float``: a FloatProperty with the hard limits as min/max (open limits a hair inside) and the
+  soft range as the slider range;
+- ``angle``: the same with the ANGLE subtype (stored in radians, shown in degrees);
+- ``rgb``: a 3-vector, COLOR subtype for reflectances (``Field.color``);
+- ``roughness`` (GGX alpha in the stack): Blender's roughness r with alpha = r^2, as a value along
+  the tangent ``<name>``, an ``<name>_anisotropic`` switch and ``<name>_y`` across it.
+
+Every edit schedules a debounced recompile (``recompile.schedule``), never compiling in the
+update callback itself.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, PointerProperty, StringProperty)
+
+from ..core import metals
+from ..core.api import MODELS
+from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+
+OPEN_MARGIN = 1e-3  # an open hard limit (ior > 0, |g| < 1) becomes a closed one this far inside
+
+
+def _on_edit(self, context):
+    from . import recompile
+
+    recompile.schedule(self.id_data)
+
+
+def _on_inspect(self, context):
+    from . import recompile
+
+    recompile.schedule_inspector(self.id_data)
+
+
+def _limits(f) -> dict:
+    kw = {}
+    if f.lo is not None:
+        kw["min"] = f.lo + (OPEN_MARGIN * max(1.0, abs(f.lo)) if f.lo_open else 0.0)
+    if f.hi is not None:
+        kw["max"] = f.hi - (OPEN_MARGIN * max(1.0, abs(f.hi)) if f.hi_open else 0.0)
+    if f.soft is not None:
+        kw["soft_min"] = max(f.soft[0], kw.get("min", -math.inf))
+        kw["soft_max"] = min(f.soft[1], kw.get("max", math.inf))
+    return kw
+
+
+def _description(f) -> str:
+    unit = f" [{f.unit}]" if f.unit and f.type != ROUGHNESS else ""
+    return f"{f.description[:1].upper()}{f.description[1:]}{unit}"
+
+
+def field_properties(f, update=_on_edit) -> dict:
+    """The Blender properties (name -> property definition) that hold schema field ``f``."""
+    label, desc = f.ui_label, _description(f)
+    if f.type in (FLOAT, ANGLE):
+        return {f.name: FloatProperty(name=label, description=desc, default=float(f.default),
+                                      subtype="ANGLE" if f.type == ANGLE else "NONE", update=update, **_limits(f))}
+    if f.type == RGB:
+        return {f.name: FloatVectorProperty(name=label, description=desc, size=3, default=tuple(f.default),
+                                            subtype="COLOR" if f.color else "NONE", update=update, **_limits(f))}
+    if f.type == ROUGHNESS:
+        ax, ay = f.default if isinstance(f.default, (list, tuple)) else (f.default, f.default)
+        base = ("Blender roughness r (GGX alpha = r squared) of the interface; "
+                f"{f.description.split(':')[0]}")
+        return {
+            f.name: FloatProperty(name=label, description=base + " (along the tangent when anisotropic)",
+                                  default=math.sqrt(ax), min=0.0, max=1.0, subtype="FACTOR", update=update),
+            f"{f.name}_anisotropic": BoolProperty(
+                name="Anisotropic", description="Different roughness along and across the tangent (brushed)",
+                default=ax != ay, update=update),
+            f"{f.name}_y": FloatProperty(name=f"{label} Y", description=base + " across the tangent",
+                                         default=math.sqrt(ay), min=0.0, max=1.0, subtype="FACTOR", update=update),
+        }
+    raise TypeError(f"no Blender property for field type {f.type!r}")
+
+
+# ---------------------------------------------------------------- conductor colour modes
+METAL_MODES = (
+    ("MEASURED", "Measured", "A measured metal: published complex index of refraction"),
+    ("ARTIST", "Artist", "Reflectivity and edge tint colours (Gulbrandsen 2014), stored as eta/k"),
+    ("CUSTOM", "Custom", "The complex index of refraction eta + i k itself"),
+)
+_METAL_ITEMS: list = []
+_syncing = False
+
+
+def metal_items(self=None, context=None):
+    if not _METAL_ITEMS:
+        _METAL_ITEMS.extend((key, m["label"], f"{m['label']}: {metals.citation(m)}")
+                            for key, m in metals.measured().items())
+    return _METAL_ITEMS
+
+
+def _apply_metal(self, context):
+    if self.mode == "MEASURED":
+        m = metals.measured()[self.metal]
+        _write_conductor(self, m["eta"], m["k"])
+
+
+def _apply_artist(self, context):
+    if self.mode == "ARTIST" and not _syncing:
+        eta, k = metals.artistic_to_complex(self.reflectivity, self.edge_tint)
+        _write_conductor(self, eta, k)
+
+
+def _on_mode(self, context):
+    """Entering a mode shows the current metal in its terms: the artist colours are derived from
+    eta/k; the measured mode applies the picked metal."""
+    global _syncing
+    if self.mode == "ARTIST":
+        r, g = metals.complex_to_artistic(self.eta, self.k)
+        _syncing = True
+        try:
+            self.reflectivity, self.edge_tint = r, g
+        finally:
+            _syncing = False
+        _apply_artist(self, context)
+    elif self.mode == "MEASURED":
+        _apply_metal(self, context)
+
+
+def _write_conductor(pg, eta, k):
+    pg.eta = tuple(eta)
+    pg.k = tuple(k)
+
+
+KIND_EXTRAS = {
+    "conductor": lambda: {
+        "mode": EnumProperty(name="Metal", description="How the metal's complex index is chosen",
+                             items=METAL_MODES, default="CUSTOM", update=_on_mode),
+        "metal": EnumProperty(name="Measured Metal", description="Published measurement to use",
+                              items=metal_items(), update=_apply_metal),
+        "reflectivity": FloatVectorProperty(name="Reflectivity", description="Colour at normal incidence",
+                                            size=3, subtype="COLOR", min=0.0, max=1.0,
+                                            default=(0.944, 0.776, 0.373), update=_apply_artist),
+        "edge_tint": FloatVectorProperty(name="Edge Tint", description="Colour toward grazing angles",
+                                         size=3, subtype="COLOR", min=0.0, max=1.0,
+                                         default=(0.998, 0.981, 0.751), update=_apply_artist),
+    },
+}
+
+
+def _kind_group(kind) -> type:
+    ann = {}
+    for f in kind.fields:
+        ann.update(field_properties(f))
+    if kind.type in KIND_EXTRAS:
+        ann.update(KIND_EXTRAS[kind.type]())
+    return type(f"LAMELLA_PG_kind_{kind.type}", (bpy.types.PropertyGroup,),
+                {"__annotations__": ann, "__doc__": kind.description.splitlines()[0]})
+
+
+KIND_GROUPS = {k.type: _kind_group(k) for k in (*COAT_KINDS.values(), *BASE_KINDS.values())}
+
+ICONS = {"coat": "MOD_THICKNESS", "conductor": "METAL", "diffuse": "MATSPHERE", "dielectric": "MOD_FLUIDSIM"}
+MEDIUM_ICON = "OUTLINER_DATA_VOLUME"
+
+
+def _kind_items(kinds):
+    return [(k.type, k.type.title(), k.description.splitlines()[0], ICONS.get(k.type, "DOT"), i)
+            for i, k in enumerate(kinds.values())]
+
+
+class LAMELLA_PG_layer(bpy.types.PropertyGroup):
+    """One coat of the stack; ``name`` is what the list shows."""
+
+    __annotations__ = {
+        "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
+        "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
+                             default=True, update=_on_edit),
+        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in COAT_KINDS},
+    }
+
+    def settings(self):
+        """The PropertyGroup of this layer's live kind."""
+        return getattr(self, self.kind)
+
+
+class LAMELLA_PG_base(bpy.types.PropertyGroup):
+    """The base closing the stack."""
+
+    __annotations__ = {
+        "kind": EnumProperty(name="Base", items=_kind_items(BASE_KINDS), update=_on_edit),
+        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in BASE_KINDS},
+    }
+
+    def settings(self):
+        return getattr(self, self.kind)
+
+
+class LAMELLA_PG_lobe(bpy.types.PropertyGroup):
+    """One row of the lobe inspector (read-only, written by the inspector)."""
+
+    kind: StringProperty(name="Kind")
+    weight: FloatVectorProperty(name="Weight", size=3, subtype="COLOR", min=0.0,
+                                description="Energy of the lobe (RGB directional albedo)")
+    roughness: FloatProperty(name="Roughness", description="Blender roughness of the lobe along its axes' mean")
+    anisotropy: FloatProperty(name="Anisotropy", description="(alpha_x - alpha_y) / (alpha_x + alpha_y)")
+    rotation: FloatProperty(name="Rotation", subtype="ANGLE")
+
+
+STATUS = (
+    ("NONE", "Not Compiled", "The stack has not been compiled yet"),
+    ("PENDING", "Pending", "An edit is waiting to be compiled"),
+    ("OK", "Compiled", "The shader matches the stack"),
+    ("ERROR", "Error", "The last edit could not be compiled; the material keeps its last working shader"),
+)
+
+
+class LAMELLA_PG_material(bpy.types.PropertyGroup):
+    """The Lamella stack of a material."""
+
+    enabled: BoolProperty(name="Lamella", description="This material is built by Lamella from its layer stack")
+    stack_name: StringProperty(name="Stack Name", description="Name of the stack (kept in exported JSON)",
+                               update=_on_edit)
+    coats: CollectionProperty(type=LAMELLA_PG_layer, name="Coats", description="Coats, top to bottom")
+    active_index: IntProperty(name="Active Layer", default=0, min=0)
+    base: PointerProperty(type=LAMELLA_PG_base)
+    model: EnumProperty(
+        name="Model", description="Layered model the shader is built from",
+        items=[(m, m if m != "auto" else "Auto", "The best model for this stack's structure" if m == "auto"
+                else f"Force the {m} model", i) for i, m in enumerate(MODELS)],
+        default="auto", update=_on_edit)
+    picked_model: StringProperty(name="Picked Model", description="The model the last compile ran")
+    status: EnumProperty(name="Status", items=STATUS, default="NONE")
+    status_message: StringProperty(name="Message")
+    compile_ms: FloatProperty(name="Compile Time", description="Milliseconds the last compile took")
+    compiled_json: StringProperty(name="Compiled Stack", description="The stack of the shader in place (JSON)")
+    inspect_angle: FloatProperty(name="View Angle", description="Angle between the view and the normal",
+                                 subtype="ANGLE", default=math.radians(30.0), min=0.0,
+                                 max=math.radians(89.0), update=_on_inspect)
+    lobes: CollectionProperty(type=LAMELLA_PG_lobe)
+    inspected_json: StringProperty(description="The stack and angle the inspector shows")
+    preview: PointerProperty(type=bpy.types.Image, name="BRDF Preview")
+
+    def active_layer(self):
+        if 0 <= self.active_index < len(self.coats):
+            return self.coats[self.active_index]
+        return None
+
+
+classes = (*KIND_GROUPS.values(), LAMELLA_PG_layer, LAMELLA_PG_base, LAMELLA_PG_lobe, LAMELLA_PG_material)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Material.lamella = PointerProperty(type=LAMELLA_PG_material, name="Lamella")
+
+
+def unregister():
+    del bpy.types.Material.lamella
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,185 @@
+"""Keeping a material's shader in step with its stack.
+
+An edit (any property update) only *schedules* work: the material goes into a pending set and one
+``bpy.app.timers`` callback compiles it once edits have paused for ``DEBOUNCE`` seconds, outside
+any draw or update callback. Blender run as a module or with ``-b`` has no event loop, so timers
+never fire there: pending work is also flushed before every render and every save (handlers), and
+``flush()`` does it on demand.
+
+A compile validates the stack, traces and compiles the shader, and only then touches the
+material. A stack that fails (a forced model that cannot run it, a compile error) leaves the last
+working shader in place and puts the message, which names the layer and field, in the status.
+"""
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+
+import bpy
+from bpy.app.handlers import persistent
+
+DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
+
+_pending: dict[str, bool] = {}  # material name_full -> whether its shader must be rebuilt
+_last_edit = 0.0
+_suspended = 0
+
+
+@contextmanager
+def suspended():
+    """Property writes inside this block schedule nothing (bulk writes compile once, after)."""
+    global _suspended
+    _suspended += 1
+    try:
+        yield
+    finally:
+        _suspended -= 1
+
+
+def _material(key: str):
+    return next((m for m in bpy.data.materials if m.name_full == key), None)
+
+
+def _queue(mat, shader: bool) -> None:
+    global _last_edit
+    if _suspended or mat is None or not isinstance(mat, bpy.types.Material) or not mat.lamella.enabled:
+        return
+    key = mat.name_full
+    _pending[key] = _pending.get(key, False) or shader
+    _last_edit = time.perf_counter()
+    if not bpy.app.timers.is_registered(_on_timer):
+        bpy.app.timers.register(_on_timer, first_interval=DEBOUNCE)
+
+
+def schedule(mat) -> None:
+    """Rebuild ``mat``'s shader soon (debounced)."""
+    if not _suspended and mat is not None and getattr(mat, "library", None) is None and mat.lamella.enabled:
+        mat.lamella.status = "PENDING"
+    _queue(mat, True)
+
+
+def schedule_inspector(mat) -> None:
+    """Refresh ``mat``'s lobe inspector soon (debounced)."""
+    _queue(mat, False)
+
+
+def pending() -> list[str]:
+    return list(_pending)
+
+
+def _on_timer():
+    wait = DEBOUNCE - (time.perf_counter() - _last_edit)
+    if wait > 1e-3:
+        return wait
+    flush()
+    return None
+
+
+def flush() -> None:
+    """Do all pending work now."""
+    work = dict(_pending)
+    _pending.clear()
+    for key, shader in work.items():
+        mat = _material(key)
+        if mat is None or not mat.lamella.enabled:
+            continue
+        if shader:
+            compile_material(mat)
+        else:
+            from . import inspector
+
+            inspector.update(mat)
+
+
+def build_shader(stack, model: str):
+    """Trace and compile the shader of ``stack`` under ``model`` without touching any material:
+    (source, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError (an
+    unknown model) or OSLCompileError."""
+    from ..core import luts
+    from ..core.backends.osl import emit_osl
+    from ..core.models import resolve
+    from .osl_compile import compile_source
+
+    picked = resolve(model, stack).name
+    source = emit_osl(stack, model, lut_dir=str(luts.DATA_DIR))
+    return source, compile_source(source, "lamella"), picked
+
+
+def install(mat, stack, built, t0: float | None = None) -> None:
+    """Put a built shader into ``mat`` and record what it shows."""
+    from ..core import luts
+    from . import inspector, material_nodes
+
+    source, oso, picked = built
+    material_nodes.install_shader(mat, source, oso, str(luts.DATA_DIR))
+    settings = mat.lamella
+    settings.picked_model = picked
+    settings.compiled_json = stack.to_json(indent=None)
+    settings.status = "OK"
+    settings.status_message = ""
+    if t0 is not None:
+        settings.compile_ms = (time.perf_counter() - t0) * 1e3
+    inspector.update(mat)
+
+
+def compile_material(mat, raise_errors: bool = False) -> bool:
+    """Rebuild ``mat``'s shader from the stack its properties hold, under its model setting. On
+    failure the status says why and the material keeps its shader (with ``raise_errors`` the
+    error is raised too). Returns whether it compiled."""
+    from ..core.models import UnsupportedStack
+    from ..core.stack import Stack, StackError
+    from .osl_compile import OSLCompileError
+    from .stack_props import stack_dict
+
+    settings = mat.lamella
+    t0 = time.perf_counter()
+    try:
+        stack = Stack.from_dict(stack_dict(settings))
+        built = build_shader(stack, settings.model)
+    except (StackError, UnsupportedStack, OSLCompileError, ValueError) as e:
+        settings.status = "ERROR"
+        settings.status_message = str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0]
+        if raise_errors:
+            raise
+        return False
+    install(mat, stack, built, t0)
+    return True
+
+
+# ---------------------------------------------------------------- handlers
+@persistent
+def _flush_before(*_args):
+    if _pending:
+        flush()
+
+
+@persistent
+def _after_load(*_args):
+    """A .blend made elsewhere: point its shaders at this installation's tables."""
+    from ..core import luts
+    from . import material_nodes
+
+    _pending.clear()
+    for mat in bpy.data.materials:
+        if mat.library is None and mat.lamella.enabled:
+            material_nodes.refresh_lut_dir(mat, str(luts.DATA_DIR))
+
+
+_HANDLERS = (("render_pre", _flush_before), ("save_pre", _flush_before), ("load_post", _after_load))
+
+
+def register():
+    for name, fn in _HANDLERS:
+        lst = getattr(bpy.app.handlers, name)
+        if fn not in lst:
+            lst.append(fn)
+
+
+def unregister():
+    for name, fn in _HANDLERS:
+        lst = getattr(bpy.app.handlers, name)
+        while fn in lst:
+            lst.remove(fn)
+    if bpy.app.timers.is_registered(_on_timer):
+        bpy.app.timers.unregister(_on_timer)
+    _pending.clear()

@@ -1,0 +1,100 @@
+"""Between a material's Lamella properties and the stack description (DESIGN.md "Contract: the
+stack description"), field by field through the layer-kind schema.
+
+Blender stores floats in single precision; values read back are rounded to 7 significant digits
+(6 for a GGX alpha, the square of the stored roughness), so a stack written and read back gives
+the numbers that were written.
+"""
+from __future__ import annotations
+
+import math
+
+from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.stack import Stack
+
+
+def _r7(x: float) -> float:
+    return float(f"{float(x):.7g}")
+
+
+def _r6(x: float) -> float:
+    return float(f"{float(x):.6g}")
+
+
+def kind_values(kind, pg) -> dict:
+    """One layer's JSON dict (type and every schema field) from its kind's PropertyGroup."""
+    d = {"type": kind.type}
+    for f in kind.fields:
+        if f.type in (FLOAT, ANGLE):
+            d[f.name] = _r7(getattr(pg, f.name))
+        elif f.type == RGB:
+            d[f.name] = [_r7(x) for x in getattr(pg, f.name)]
+        elif f.type == ROUGHNESS:
+            rx = getattr(pg, f.name)
+            if getattr(pg, f"{f.name}_anisotropic"):
+                d[f.name] = [_r6(rx * rx), _r6(getattr(pg, f"{f.name}_y") ** 2)]
+            else:
+                d[f.name] = _r6(rx * rx)
+    return d
+
+
+def write_kind(kind, pg, layer) -> None:
+    """Write a parsed layer (a kind's dataclass) into its kind's PropertyGroup."""
+    for f in kind.fields:
+        v = getattr(layer, f.name)
+        if f.type in (FLOAT, ANGLE):
+            setattr(pg, f.name, v)
+        elif f.type == RGB:
+            setattr(pg, f.name, tuple(v))
+        elif f.type == ROUGHNESS:
+            ax, ay = v
+            setattr(pg, f"{f.name}_anisotropic", ax != ay)
+            setattr(pg, f.name, math.sqrt(ax))
+            setattr(pg, f"{f.name}_y", math.sqrt(ay))
+
+
+def stack_dict(settings, include_muted: bool = False) -> dict:
+    """The stack the material renders: its coats top to bottom (muted ones left out unless
+    ``include_muted``) over its base, as a JSON-compatible dict (not yet validated)."""
+    layers = [kind_values(COAT_KINDS[c.kind], c.settings()) for c in settings.coats if c.show or include_muted]
+    return {"name": settings.stack_name, "layers": layers,
+            "base": kind_values(BASE_KINDS[settings.base.kind], settings.base.settings())}
+
+
+def layer_label(layer) -> str:
+    """A name for a new coat from what it is: medium, tinted, brushed, clear."""
+    if layer.has_scattering:
+        return "Scattering Medium"
+    if layer.has_absorption:
+        return "Tinted Coat"
+    if layer.roughness[0] != layer.roughness[1]:
+        return "Brushed Coat"
+    return "Rough Coat" if not layer.is_smooth else "Clear Coat"
+
+
+def write_stack(settings, stack: Stack) -> None:
+    """Replace the material's layers and base by ``stack`` (already validated)."""
+    settings.stack_name = stack.name
+    settings.coats.clear()
+    for c in stack.coats:
+        item = settings.coats.add()
+        item.kind = c.type
+        item.name = layer_label(c)
+        write_kind(COAT_KINDS[c.type], item.settings(), c)
+    settings.active_index = 0
+    settings.base.kind = stack.base.type
+    write_kind(BASE_KINDS[stack.base.type], settings.base.settings(), stack.base)
+    if stack.base.type == "conductor":
+        settings.base.conductor.mode = "CUSTOM"
+
+
+def copy_layer(src, dst) -> None:
+    """Copy one coat item's kind, visibility and every kind's fields (a duplicate)."""
+    dst.kind = src.kind
+    dst.show = src.show
+    dst.name = src.name
+    for k in COAT_KINDS:
+        s, d = getattr(src, k), getattr(dst, k)
+        for prop in s.bl_rna.properties:
+            if prop.identifier != "rna_type" and not prop.is_readonly:
+                setattr(d, prop.identifier, getattr(s, prop.identifier))

@@ -1,0 +1,353 @@
+"""The Lamella panel: in Material Properties and in the shader editor's sidebar (one draw code).
+
+Layout, top to bottom (Blender's property split throughout):
+
+- status: compiled (model, time) / pending / the error, and the render-setting problems that
+  keep the shader from showing (engine, Open Shading Language off, GPU device), each with a
+  one-click fix;
+- presets menu, save-preset button and a menu of file actions (import/export JSON, export OSL);
+- the layer list (icon per kind, name, eye toggle to mute a layer) with add (a menu of coat
+  templates), remove, duplicate and move buttons, then the base as the last row below it;
+- collapsible sections: the active coat's fields (its medium in a nested section), the base,
+  the model ("Auto" shows what it picked), and the lobe inspector (view-angle slider, a BRDF
+  slice preview and the table of lobes).
+
+Fields are drawn from the layer-kind schema, like the properties themselves. Draw functions read
+properties only: they compute nothing and never compile.
+"""
+from __future__ import annotations
+
+import textwrap
+
+import bpy
+
+from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
+from .operators import context_material
+from .properties import ICONS, MEDIUM_ICON
+
+STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
+
+
+def _wrapped(layout, text: str, icon: str = "NONE", width: int = 48) -> None:
+    col = layout.column(align=True)
+    for i, line in enumerate(textwrap.wrap(text, width) or [""]):
+        col.label(text=line, icon=icon if i == 0 else "BLANK1")
+
+
+def layer_icon(item) -> str:
+    pg = item.settings()
+    if item.kind == "coat" and pg.thickness > 0 and any(x > 0 for x in pg.sigma_s):
+        return MEDIUM_ICON
+    return ICONS.get(item.kind, "DOT")
+
+
+# ---------------------------------------------------------------- pieces
+def draw_status(layout, context, mat) -> None:
+    s = mat.lamella
+    box = layout.box()
+    if s.status == "ERROR":
+        box.alert = True
+        _wrapped(box, s.status_message.splitlines()[0] if s.status_message else "error", "ERROR")
+        box.label(text="The material keeps its last working shader.", icon="BLANK1")
+    elif s.status == "OK":
+        picked = f"auto: {s.picked_model}" if s.model == "auto" else s.picked_model
+        box.label(text=f"Compiled ({picked}, {s.compile_ms:.0f} ms)", icon="CHECKMARK")
+    else:
+        box.label(text="Compiling..." if s.status == "PENDING" else "Not compiled",
+                  icon=STATUS_ICONS.get(s.status, "INFO"))
+    sc = context.scene
+    problem = None
+    if sc.render.engine != "CYCLES":
+        problem = "Cycles renders this shader; EEVEE and Workbench show the material's other output."
+    elif not sc.cycles.shading_system:
+        problem = "Open Shading Language is off: the shader renders black."
+    elif sc.cycles.device == "GPU":
+        problem = "OSL runs on the CPU only (or OptiX): this GPU device renders the shader black."
+    if problem:
+        col = box.column()
+        col.alert = sc.render.engine == "CYCLES"
+        _wrapped(col, problem, "ERROR" if col.alert else "INFO")
+        col.operator("lamella.fix_render_settings", icon="SETTINGS")
+
+
+def draw_presets(layout, mat) -> None:
+    row = layout.row(align=True)
+    row.menu("LAMELLA_MT_presets", text="Presets", icon="PRESET")
+    row.operator("lamella.preset_save", text="", icon="ADD")
+    row.menu("LAMELLA_MT_stack_files", text="", icon="DOWNARROW_HLT")
+
+
+def draw_layers(layout, mat) -> None:
+    s = mat.lamella
+    row = layout.row()
+    row.template_list("LAMELLA_UL_layers", "", s, "coats", s, "active_index", rows=4)
+    col = row.column(align=True)
+    col.menu("LAMELLA_MT_add_layer", icon="ADD", text="")
+    col.operator("lamella.layer_remove", icon="REMOVE", text="")
+    col.separator()
+    col.operator("lamella.layer_duplicate", icon="DUPLICATE", text="")
+    col.separator()
+    col.operator("lamella.layer_move", icon="TRIA_UP", text="").direction = "UP"
+    col.operator("lamella.layer_move", icon="TRIA_DOWN", text="").direction = "DOWN"
+    base = layout.row()
+    base.label(text=f"Base: {BASE_KINDS[s.base.kind].type.title()}", icon=ICONS.get(s.base.kind, "DOT"))
+
+
+def _is_anisotropic(kind, pg) -> bool:
+    return any(getattr(pg, f"{f.name}_anisotropic") for f in kind.fields if f.type == ROUGHNESS)
+
+
+def draw_fields(layout, kind, pg, panel_prefix: str, enabled_fields=None) -> None:
+    """The kind's schema fields, property split; grouped fields in collapsible sections."""
+    col = layout.column()
+    col.use_property_split = True
+    col.use_property_decorate = False
+    groups: dict[str, list] = {}
+    for f in kind.fields:
+        if f.group:
+            groups.setdefault(f.group, []).append(f)
+            continue
+        _draw_field(col, kind, pg, f, enabled_fields)
+    for group, fields in groups.items():
+        header, body = layout.panel(f"{panel_prefix}_{group.lower()}", default_closed=True)
+        header.label(text=group)
+        if body is not None:
+            bcol = body.column()
+            bcol.use_property_split = True
+            bcol.use_property_decorate = False
+            for f in fields:
+                _draw_field(bcol, kind, pg, f, enabled_fields)
+
+
+def _draw_field(col, kind, pg, f, enabled_fields) -> None:
+    sub = col
+    if enabled_fields is not None and f.name not in enabled_fields:
+        sub = col.column()
+        sub.enabled = False
+    if f.type == ROUGHNESS:
+        aniso = getattr(pg, f"{f.name}_anisotropic")
+        sub.prop(pg, f.name, text=f"{f.ui_label} X" if aniso else f.ui_label)
+        if aniso:
+            sub.prop(pg, f"{f.name}_y")
+        sub.prop(pg, f"{f.name}_anisotropic")
+    elif f.type == ANGLE and f.name == "rotation":
+        if _is_anisotropic(kind, pg):  # the rotation turns the anisotropy axes: nothing to turn otherwise
+            sub.prop(pg, f.name)
+    else:
+        sub.prop(pg, f.name)
+
+
+def draw_active_layer(layout, mat) -> None:
+    s = mat.lamella
+    item = s.active_layer()
+    header, body = layout.panel("lamella_layer", default_closed=False)
+    header.label(text=f"Layer: {item.name}" if item else "Layer")
+    if body is None:
+        return
+    if item is None:
+        body.label(text="No coat: add one with +", icon="INFO")
+        return
+    body.prop(item, "name")
+    draw_fields(body, COAT_KINDS[item.kind], item.settings(), "lamella_layer")
+
+
+def draw_base(layout, mat) -> None:
+    b = mat.lamella.base
+    header, body = layout.panel("lamella_base", default_closed=False)
+    header.label(text=f"Base: {b.kind.title()}")
+    if body is None:
+        return
+    body.row().prop(b, "kind", expand=True)
+    pg = b.settings()
+    enabled = None
+    if b.kind == "conductor":
+        body.row().prop(pg, "mode", expand=True)
+        col = body.column()
+        col.use_property_split = True
+        col.use_property_decorate = False
+        if pg.mode == "MEASURED":
+            col.prop(pg, "metal")
+            enabled = {"roughness", "rotation"}
+        elif pg.mode == "ARTIST":
+            col.prop(pg, "reflectivity")
+            col.prop(pg, "edge_tint")
+            enabled = {"roughness", "rotation"}
+    draw_fields(body, BASE_KINDS[b.kind], pg, "lamella_base", enabled)
+
+
+def draw_model(layout, mat) -> None:
+    s = mat.lamella
+    header, body = layout.panel("lamella_model", default_closed=True)
+    header.label(text=f"Model: {s.picked_model or s.model}" + (" (auto)" if s.model == "auto" else ""))
+    if body is None:
+        return
+    col = body.column()
+    col.use_property_split = True
+    col.use_property_decorate = False
+    col.prop(s, "model")
+    if s.model == "auto" and s.picked_model:
+        col.label(text=f"Auto picked {s.picked_model}", icon="INFO")
+    body.operator("lamella.recompile", icon="FILE_REFRESH")
+
+
+def draw_inspector(layout, mat) -> None:
+    from . import inspector, recompile
+
+    s = mat.lamella
+    header, body = layout.panel("lamella_inspector", default_closed=True)
+    header.label(text="Lobe Inspector")
+    if body is None:
+        return
+    col = body.column()
+    col.use_property_split = True
+    col.use_property_decorate = False
+    col.prop(s, "inspect_angle")
+    if s.preview is not None and inspector.is_fresh(mat):
+        body.template_icon(icon_value=s.preview.preview.icon_id if s.preview.preview else 0, scale=8.0)
+        body.label(text="Slice in the plane of incidence (square-root scale); yellow: the view")
+    elif s.status == "OK":
+        recompile.schedule_inspector(mat)  # queues work for the timer; draws nothing heavy
+    grid = body.grid_flow(columns=4, even_columns=True, align=True)
+    for text in ("Lobe", "Energy", "Roughness", "Anisotropy"):
+        grid.label(text=text)
+    for lobe in s.lobes:
+        grid.label(text=lobe.kind)
+        grid.prop(lobe, "weight", text="")
+        grid.label(text=f"{lobe.roughness:.3f}")
+        grid.label(text=f"{lobe.anisotropy:+.2f}")
+    energy = [sum(lobe.weight[c] for lobe in s.lobes) for c in range(3)]
+    body.label(text="Total energy: " + ", ".join(f"{e:.3f}" for e in energy))
+
+
+def draw_material(layout, context, mat) -> None:
+    """The whole panel for ``mat``."""
+    if mat is None:
+        layout.label(text="No material", icon="INFO")
+        return
+    s = mat.lamella
+    if not s.enabled:
+        layout.label(text="Not a Lamella material")
+        row = layout.row()
+        row.operator("lamella.enable", icon="MATERIAL")
+        row.operator("lamella.material_new", icon="ADD")
+        return
+    if mat.library is not None:
+        layout.label(text=f"Linked from {mat.library.filepath}: read only", icon="LINKED")
+        layout.enabled = False
+    draw_status(layout, context, mat)
+    draw_presets(layout, mat)
+    draw_layers(layout, mat)
+    draw_active_layer(layout, mat)
+    draw_base(layout, mat)
+    draw_model(layout, mat)
+    draw_inspector(layout, mat)
+
+
+# ---------------------------------------------------------------- classes
+class LAMELLA_UL_layers(bpy.types.UIList):
+    """Coats top to bottom: kind icon, name, eye toggle."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
+        row = layout.row(align=True)
+        row.active = item.show
+        row.prop(item, "name", text="", emboss=False, icon=layer_icon(item))
+        row.prop(item, "show", text="", emboss=False, icon="HIDE_OFF" if item.show else "HIDE_ON")
+
+
+class LAMELLA_MT_add_layer(bpy.types.Menu):
+    """Coat templates to add above the active layer."""
+
+    bl_label = "Add Layer"
+
+    def draw(self, context):
+        from .operators import template_items
+
+        for ident, label, _desc, icon, _i in template_items():
+            self.layout.operator("lamella.layer_add", text=label, icon=icon).template = ident
+
+
+class LAMELLA_MT_presets(bpy.types.Menu):
+    """Built-in presets, then the user's."""
+
+    bl_label = "Presets"
+
+    def draw(self, context):
+        from .operators import preset_items
+
+        layout = self.layout
+        builtin = True
+        for ident, label, _desc, icon, _i in preset_items():
+            if builtin and ident.startswith("user:"):
+                builtin = False
+                layout.separator()
+                layout.label(text="User Presets")
+            layout.operator("lamella.preset_apply", text=label, icon=icon).preset = ident
+
+
+class LAMELLA_MT_stack_files(bpy.types.Menu):
+    """Stack files and shader export."""
+
+    bl_label = "Stack"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("lamella.stack_import", icon="IMPORT")
+        layout.operator("lamella.stack_export", icon="EXPORT")
+        layout.separator()
+        layout.operator("lamella.export_osl", icon="SCRIPT")
+        layout.separator()
+        layout.operator_menu_enum("lamella.preset_remove", "preset", text="Remove User Preset", icon="TRASH")
+        layout.operator("lamella.disable", icon="X")
+
+
+class LAMELLA_PT_material(bpy.types.Panel):
+    """Lamella in Properties > Material."""
+
+    bl_label = "Lamella"
+    bl_idname = "LAMELLA_PT_material"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "material", None) is not None
+
+    def draw(self, context):
+        draw_material(self.layout, context, context.material)
+
+
+class LAMELLA_PT_node_editor(bpy.types.Panel):
+    """Lamella in the shader editor's sidebar."""
+
+    bl_label = "Lamella"
+    bl_idname = "LAMELLA_PT_node_editor"
+    bl_space_type = "NODE_EDITOR"
+    bl_region_type = "UI"
+    bl_category = "Lamella"
+
+    @classmethod
+    def poll(cls, context):
+        space = getattr(context, "space_data", None)
+        return (space is not None and getattr(space, "tree_type", "") == "ShaderNodeTree"
+                and isinstance(getattr(space, "id", None), bpy.types.Material))
+
+    def draw(self, context):
+        draw_material(self.layout, context, context.space_data.id)
+
+
+classes = (LAMELLA_UL_layers, LAMELLA_MT_add_layer, LAMELLA_MT_presets, LAMELLA_MT_stack_files,
+           LAMELLA_PT_material, LAMELLA_PT_node_editor)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)
+
+
+__all__ = ["draw_material", "context_material", "classes"]

@@ -1,0 +1,86 @@
+"""Stack presets and coat templates, as JSON (never Python): the built-in ones shipped in
+``data/presets`` (listed, in menu order, with a description, by ``data/presets/INDEX.json``) and
+the user's own, plain stack files in a folder the caller names (the extension's user folder).
+"""
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from .stack import Stack, StackError
+
+DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+PRESET_DIR = DATA_DIR / "presets"
+TEMPLATES_FILE = DATA_DIR / "layer_templates.json"
+USER_PREFIX = "user:"
+
+
+@dataclass(frozen=True)
+class Preset:
+    id: str  # "car_paint", or "user:<file stem>" for a user preset
+    label: str
+    description: str
+    path: Path
+    builtin: bool
+
+    def load(self) -> Stack:
+        try:
+            return Stack.from_json(self.path.read_text())
+        except OSError as e:
+            raise StackError("stack", None, f"cannot read preset {self.label!r} ({self.path}): {e.strerror}") from None
+
+
+def builtin() -> list[Preset]:
+    index = json.loads((PRESET_DIR / "INDEX.json").read_text())
+    return [Preset(p["id"], p["label"], p["description"], (PRESET_DIR / p["file"]).resolve(), True)
+            for p in index["presets"]]
+
+
+def user(folder: Path | None) -> list[Preset]:
+    if folder is None or not Path(folder).is_dir():
+        return []
+    out = []
+    for p in sorted(Path(folder).glob("*.json")):
+        try:
+            name = json.loads(p.read_text()).get("name") or p.stem
+        except (OSError, ValueError, AttributeError):
+            name = p.stem  # listed all the same: loading it reports what is wrong
+        out.append(Preset(USER_PREFIX + p.stem, str(name), f"User preset ({p.name})", p, False))
+    return out
+
+
+def all_presets(user_folder: Path | None = None) -> list[Preset]:
+    return builtin() + user(user_folder)
+
+
+def find(preset_id: str, user_folder: Path | None = None) -> Preset:
+    for p in all_presets(user_folder):
+        if p.id == preset_id:
+            return p
+    raise KeyError(f"no preset {preset_id!r}")
+
+
+def slug(name: str) -> str:
+    s = re.sub(r"[^A-Za-z0-9_-]+", "_", name.strip()).strip("_").lower()
+    return s or "preset"
+
+
+def save_user(folder: Path, name: str, stack: Stack) -> Path:
+    """Write ``stack`` as user preset ``name`` (a JSON stack named ``name``); returns its path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    d = stack.to_dict()
+    d["name"] = name
+    path = folder / f"{slug(name)}.json"
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(d, indent=2) + "\n")
+    tmp.replace(path)
+    return path
+
+
+def layer_templates() -> list[dict]:
+    """Coat templates of the panel's add menu: ``id``, ``label``, ``description``, ``icon`` and
+    ``layer`` (a coat as in the stack description)."""
+    return json.loads(TEMPLATES_FILE.read_text())["templates"]

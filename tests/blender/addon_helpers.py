@@ -1,0 +1,102 @@
+"""Shared pieces of the extension's tests: registering it, a material on the canonical sphere,
+and a stand-in for Blender's UI layout (panel ``draw`` never runs headless)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def register():
+    import lamella.blender
+
+    lamella.blender.register()
+
+
+def unregister():
+    import lamella.blender
+
+    lamella.blender.unregister()
+
+
+def sphere_scene(res=48, spp=8, scene="sphere-env"):
+    """The canonical scene (DESIGN.md) with no material yet: (scene, sphere)."""
+    from lamella.blender.render import build_scene
+
+    return build_scene(scene, res, spp)
+
+
+def render(sc) -> np.ndarray:
+    from lamella.blender.render import render_scene
+
+    return render_scene(sc)[0]
+
+
+def new_material(sphere, name="lamella_test"):
+    import bpy
+
+    mat = bpy.data.materials.new(name)
+    sphere.data.materials.clear()
+    sphere.data.materials.append(mat)
+    return mat
+
+
+class RecordingLayout:
+    """Stands in for ``bpy.types.UILayout``: records every property (data, name), operator id,
+    menu id and list template a draw function asks for, and hands out sub-layouts that record into
+    the same lists. Sub-panels are drawn open, so every branch of a panel is visited."""
+
+    def __init__(self, root=None):
+        self.root = root or self
+        if root is None:
+            self.props, self.operators, self.menus, self.lists, self.labels = [], [], [], [], []
+        self.use_property_split = False
+        self.use_property_decorate = True
+        self.enabled = True
+        self.active = True
+        self.alert = False
+
+    # containers
+    def _sub(self, *args, **kwargs):
+        return RecordingLayout(self.root)
+
+    row = column = box = split = grid_flow = column_flow = _sub
+
+    def panel(self, idname, default_closed=False):
+        return RecordingLayout(self.root), RecordingLayout(self.root)
+
+    # content
+    def prop(self, data, prop, **kwargs):
+        self.root.props.append((data, prop))
+
+    def prop_enum(self, data, prop, value, **kwargs):
+        self.root.props.append((data, prop))
+
+    def label(self, text="", **kwargs):
+        self.root.labels.append(text)
+
+    def separator(self, **kwargs):
+        pass
+
+    def operator(self, idname, **kwargs):
+        self.root.operators.append(idname)
+        return _OperatorProperties()
+
+    def operator_menu_enum(self, idname, prop, **kwargs):
+        self.root.operators.append(idname)
+
+    def menu(self, idname, **kwargs):
+        self.root.menus.append(idname)
+
+    def template_list(self, listtype, list_id, dataptr, propname, active_dataptr, active_propname, **kwargs):
+        self.root.lists.append(listtype)
+        self.root.props.append((dataptr, propname))
+        self.root.props.append((active_dataptr, active_propname))
+
+    def template_icon(self, icon_value=0, scale=1.0):
+        pass
+
+
+class _OperatorProperties:
+    """What ``layout.operator`` returns: attribute assignments are accepted."""
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)

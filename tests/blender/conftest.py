@@ -1,0 +1,21 @@
+"""Fixtures of the Blender tests: the extension registered once per test process, in its own
+user folder (presets, shader cache), and a fresh canonical scene."""
+import pytest
+
+
+@pytest.fixture(scope="session")
+def addon(tmp_path_factory):
+    bpy = pytest.importorskip("bpy")
+    from . import addon_helpers
+
+    addon_helpers.register()
+    yield bpy
+    addon_helpers.unregister()
+
+
+@pytest.fixture
+def scene(addon):
+    """(scene, sphere) of the canonical sphere-env scene at a test size, no material yet."""
+    from . import addon_helpers
+
+    return addon_helpers.sphere_scene()
