@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test bench-accuracy bench-images references references-pending image-references luts clean
+.PHONY: setup demo test package test-blender-versions bench-accuracy bench-images bench-recompile references references-pending image-references luts clean
 
 setup: $(STAMP)
 
@@ -15,11 +15,33 @@ $(STAMP): pyproject.toml tools/install_bpy_pth.py
 	$(PY) tools/install_bpy_pth.py
 	touch $(STAMP)
 
+# The main job: the demo stacks' renders and contact sheet, then the showcase scene built with the
+# extension (demo_blend/showcase.blend) rendered small; DEMO_FLAGS=--full renders it at 1920 x 1080.
 demo: setup
 	$(VENV)/bin/lamella demo --out out
+	$(PY) demo_blend/build_showcase.py --out out $(DEMO_FLAGS)
 
 test: setup
 	$(VENV)/bin/pytest -q -n 2
+
+# The extension zip, built and validated by Blender's own extension tool (in the bpy wheel).
+package: setup
+	$(PY) tools/build_extension.py dist
+
+# The extension's tests on other Blender releases whose bpy wheels install here (Python 3.11):
+# one venv each (.venv-bpy-<version>), the project installed into it with that bpy.
+BLENDER_VERSIONS ?= 4.2.23 4.5.15
+ADDON_TESTS := tests/blender/test_addon_api.py tests/blender/test_addon_operators.py tests/blender/test_addon_ui.py \
+	tests/blender/test_addon_persistence.py tests/blender/test_addon_presets.py tests/blender/test_extension_package.py \
+	tests/blender/test_batch.py
+test-blender-versions:
+	@for v in $(BLENDER_VERSIONS); do \
+		echo "== bpy $$v"; \
+		test -x .venv-bpy-$$v/bin/python || $(PYTHON) -m venv .venv-bpy-$$v || exit 1; \
+		.venv-bpy-$$v/bin/pip install -q -e ".[test]" "bpy==$$v" || exit 1; \
+		.venv-bpy-$$v/bin/python tools/install_bpy_pth.py || exit 1; \
+		.venv-bpy-$$v/bin/pytest -q -n 2 -p no:cacheprovider $(ADDON_TESTS) || exit 1; \
+	done
 
 bench-accuracy: setup
 	$(VENV)/bin/lamella bench accuracy
@@ -61,8 +83,11 @@ bench-images: setup
 	$(VENV)/bin/lamella bench images
 	$(VENV)/bin/lamella bench osl-cost
 
+bench-recompile: setup
+	$(VENV)/bin/lamella bench recompile
+
 luts: setup
 	$(VENV)/bin/lamella luts
 
 clean:
-	rm -rf $(VENV) out
+	rm -rf $(VENV) .venv-bpy-* out dist

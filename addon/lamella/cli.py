@@ -112,6 +112,10 @@ def cmd_bench(a) -> int:
 
         md, _ = osl_cost.run()
         print(md.read_text())
+    elif a.what == "recompile":
+        from .bench import recompile
+
+        print(recompile.run(BENCH_DIR).read_text())
     elif a.what == "trapping":
         from .bench import trapping
 
@@ -130,13 +134,64 @@ def cmd_bench(a) -> int:
 
 
 def cmd_export_osl(a) -> int:
-    from .core.backends.osl import emit_osl
+    """Write the OSL bundle of a stack: the shader, the look-up tables it reads (``luts/``) and a
+    README. An ``-o`` ending in ``.osl`` names the shader file (the bundle goes beside it);
+    anything else is the bundle folder."""
+    from .core.backends.osl import VIEW_TARGETS
+    from .core.backends.osl_bundle import bundle_files, write_bundle
+    from .core.models import UnsupportedStack, resolve
 
+    if a.target not in VIEW_TARGETS:
+        raise _fail(f"export-osl: unknown --target {a.target!r}: expected one of {', '.join(VIEW_TARGETS)}")
     stack = _load_stack(a.stack)
-    src = emit_osl(stack, model=a.model, lut_dir=a.lut_dir)
+    try:
+        resolve(a.model, stack)
+    except ValueError as e:
+        raise _fail(f"export-osl: {e}") from None
     out = Path(a.out)
-    out.write_text(src)
-    print(f"wrote {out} ({len(src.splitlines())} lines; tables read from the shader's lut_dir)")
+    out_dir, file_name = (out.parent, out.name) if out.suffix.lower() == ".osl" else (out, None)
+    try:
+        shader = write_bundle(stack, out_dir, model=a.model, target=a.target, file_name=file_name,
+                              lut_dir=a.lut_dir)
+    except UnsupportedStack as e:
+        raise _fail(f"export-osl: {e}") from None
+    files = bundle_files(shader)
+    lut_note = f"lut_dir defaults to {a.lut_dir!r}" if a.lut_dir else "lut_dir defaults to 'luts', relative"
+    print(f"wrote {shader} ({len(shader.read_text().splitlines())} lines; view target {a.target}; {lut_note})")
+    for f in files[1:]:
+        print(f"wrote {f}")
+    return 0
+
+
+def cmd_apply(a) -> int:
+    """Pipelines without a script: open a .blend, make one material show a stack (created if the
+    file has no material of that name), save. The extension's own code does the work, exactly
+    as ``apply_stack`` inside Blender."""
+    stack = _load_stack(a.stack)
+    blend_in = Path(a.blend)
+    if not blend_in.exists():
+        raise _fail(f"apply: no such .blend file: {blend_in}")
+    import bpy
+
+    from .blender import api, register
+
+    bpy.ops.wm.open_mainfile(filepath=str(blend_in))
+    register()
+    mat = bpy.data.materials.get(a.material)
+    created = mat is None
+    if created:
+        mat = bpy.data.materials.new(a.material)
+    try:
+        api.apply_stack(mat, stack, model=a.model)
+    except Exception as e:  # StackError, UnsupportedStack, a linked material: the message says which
+        raise _fail(f"apply: {a.material}: {e}") from None
+    out = Path(a.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if created:
+        mat.use_fake_user = True  # a new material no object uses yet must survive the save
+    bpy.ops.wm.save_as_mainfile(filepath=str(out.resolve()), copy=True)
+    print(f"{'created' if created else 'updated'} material {mat.name!r} ({mat.lamella.picked_model}, "
+          f"{len(stack.coats)} coat(s) over a {stack.base.type}) -> {out}")
     return 0
 
 
@@ -237,16 +292,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "shells", "trapping"])
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "shells", "trapping"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)
 
-    p = sub.add_parser("export-osl", help="write a standalone OSL shader for a stack")
+    p = sub.add_parser("export-osl", help="write a self-contained OSL bundle for a stack: shader, tables, README")
     p.add_argument("stack")
-    p.add_argument("-o", "--out", required=True)
+    p.add_argument("-o", "--out", required=True,
+                   help="FILE.osl (the bundle goes into its folder) or a bundle folder (created)")
     p.add_argument("--model", default="auto")
-    p.add_argument("--lut-dir", help="folder of the EXR tables the shader reads (default: the package's)")
+    p.add_argument("--target", default="cycles",
+                   help="the renderer's convention for I: cycles (default; I points toward the viewer) or "
+                        "osl-spec (the OSL specification: I points toward the surface)")
+    p.add_argument("--lut-dir", help="absolute folder of the EXR tables baked in as the shader's lut_dir "
+                                     "(default: 'luts', the bundle's copy, relative)")
     p.set_defaults(fn=cmd_export_osl)
+
+    p = sub.add_parser("apply", help="make a material of a .blend show a stack and save the file (pipelines)")
+    p.add_argument("stack", help="stack JSON file, suite case or example name")
+    p.add_argument("--blend", required=True, help="the .blend file to read")
+    p.add_argument("--material", required=True, help="material name (created if the file has none of that name)")
+    p.add_argument("-o", "--out", required=True, help="the .blend file to write (may be the input)")
+    p.add_argument("--model", default=None, help="force a model (default: the material's setting, auto)")
+    p.set_defaults(fn=cmd_apply)
 
     p = sub.add_parser("render", help="render a stack into a canonical sphere scene (linear float EXR)")
     p.add_argument("stack")

@@ -19,3 +19,16 @@ def scene(addon):
     from . import addon_helpers
 
     return addon_helpers.sphere_scene()
+
+
+@pytest.fixture(scope="session")
+def extension_zip(tmp_path_factory):
+    """The extension built and validated by Blender's own tool (tools/build_extension.py)."""
+    pytest.importorskip("bpy")
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+    import build_extension
+
+    return build_extension.build(tmp_path_factory.mktemp("dist"))

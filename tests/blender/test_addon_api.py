@@ -82,8 +82,10 @@ def test_forced_model_that_cannot_run_the_stack_leaves_the_material_intact(addon
 
 
 def test_user_nodes_stay_and_linked_textures_survive_recompiles(addon):
+    from lamella.blender.render import node_tree
+
     mat = addon.data.materials.new("user_nodes")
-    nt = mat.node_tree
+    nt = node_tree(mat)
     user = {n.name for n in nt.nodes}  # the default Principled BSDF and its output
     api.apply_stack(mat, suite.load("gold_coated"))
     script = nt.nodes[material_nodes.SCRIPT]

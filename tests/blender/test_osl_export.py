@@ -1,16 +1,37 @@
 """`lamella export-osl`: the generated shader compiles with Blender's bundled OSL compiler and
-exposes every per-layer parameter as an input (first step of issue 3; rendering checks follow)."""
+exposes every per-layer parameter as an input; the export is a bundle (shader, the tables it
+reads, a README listing every parameter) for either view convention (Cycles' I toward the viewer,
+the OSL specification's I toward the surface)."""
 import os
+import re
 import subprocess
 import sys
 
 import pytest
 
-from lamella.core import suite
+from lamella.core import luts, suite
+from lamella.core.backends.osl import VIEW_LINES, VIEW_TARGETS, emit_osl
+from lamella.core.backends.osl_bundle import README, TABLES_DIR, write_bundle
 
 bpy = pytest.importorskip("bpy")  # the wheel is part of `make test`'s set-up
 import _cycles  # noqa: E402  (Cycles' Python module, available once bpy is imported)
 import oslquery  # noqa: E402  (bundled with the wheel; the .pth of tools/install_bpy_pth.py)
+
+# one stack per structure: conductor, anisotropic and rotated, scattering medium, absorbing coat
+# over a diffuse base, transmissive dielectric base
+BUNDLE_CASES = ["gold_coated", "rotated_60", "fog_g09_d1", "varnished_wood", "rough_glass_plate"]
+LUT_READ = re.compile(r'concat\(lut_dir, "/([^"]+)"\)')
+README_ROW = re.compile(r"^\| `(\w+)` \| ([^|]+) \| `([^`]*)` \| ([^|]+) \|$", re.M)
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "lamella.cli", "export-osl", *args], capture_output=True, text=True)
+
+
+def _compile(osl, oso):
+    assert _cycles.osl_compile(str(osl), str(oso)), f"OSL compile of {osl} failed (see stderr)"
+    assert os.path.getsize(oso) > 0
+    return list(oslquery.OSLQuery(str(oso)).parameters)
 
 
 def _roughness_inputs(prefix, roughness):
@@ -23,12 +44,10 @@ def _roughness_inputs(prefix, roughness):
 @pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "three_coats", "tinted_varnish", "four_coats"])
 def test_exported_shader_compiles(tmp_path, case):
     osl = tmp_path / f"{case}.osl"
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "export-osl", case, "-o", str(osl)],
-                       capture_output=True, text=True)
+    r = _cli(case, "-o", str(osl))
     assert r.returncode == 0, r.stderr
-    oso = tmp_path / f"{case}.oso"
-    assert _cycles.osl_compile(str(osl), str(oso)), "OSL compile failed (see stderr)"
-    names = {p.name for p in oslquery.OSLQuery(str(oso)).parameters}
+    assert osl.exists() and (tmp_path / README).exists()  # -o FILE.osl: the bundle goes beside it
+    names = {p.name for p in _compile(osl, tmp_path / f"{case}.oso")}
     stack = suite.example(case) if case == "four_coats" else suite.load(case)
     for i, c in enumerate(stack.coats):
         assert f"coat{i}_ior" in names
@@ -36,4 +55,82 @@ def test_exported_shader_compiles(tmp_path, case):
         assert (f"coat{i}_thickness" in names) == c.has_absorption
     assert {"base_eta_r", "base_k_b", "Tangent", "lut_dir", "BSDF"} <= names
     assert _roughness_inputs("base", stack.base.roughness) <= names
-    assert os.path.getsize(oso) > 0
+
+
+@pytest.mark.parametrize("target", VIEW_TARGETS)
+@pytest.mark.parametrize("case", BUNDLE_CASES)
+def test_bundle_compiles_and_readme_lists_every_parameter(tmp_path, case, target):
+    shader = write_bundle(suite.load(case), tmp_path, target=target)
+    assert shader == tmp_path / f"lamella_{case}.osl"
+    src = shader.read_text()
+    assert VIEW_LINES[target] in src.splitlines()
+    assert '    string lut_dir = "luts",' in src.splitlines()
+    params = _compile(shader, tmp_path / f"lamella_{case}.oso")
+    rows = {m.group(1): m.groups()[1:] for m in README_ROW.finditer((tmp_path / README).read_text())}
+    assert set(rows) == {p.name for p in params}
+    for p in params:
+        typ, default, description = rows[p.name]
+        assert typ.split()[-1] == ("color" if p.isclosure else str(p.type)), p.name
+        assert description.strip() and "shader input" not in description, p.name
+        if str(p.type) == "float":
+            assert float(default) == pytest.approx(p.value), p.name
+    for name, (_, _, description) in rows.items():
+        if "_alpha" in name:
+            assert "roughness squared" in description
+
+
+@pytest.mark.parametrize("case", BUNDLE_CASES)
+def test_targets_differ_only_in_the_view_line(case):
+    stack = suite.load(case)
+    cycles = emit_osl(stack, view="cycles").splitlines()
+    spec = emit_osl(stack, view="osl-spec").splitlines()
+    assert len(cycles) == len(spec)
+    diff = [i for i, (a, b) in enumerate(zip(cycles, spec)) if a != b]
+    assert len(diff) == 1
+    a, b = cycles[diff[0]], spec[diff[0]]
+    assert a == VIEW_LINES["cycles"] and b == VIEW_LINES["osl-spec"]
+    code_a, code_b = a.split("//")[0].strip(), b.split("//")[0].strip()
+    assert code_a == "vector V = normalize(I);"
+    assert code_b == code_a.replace("= normalize(I)", "= -normalize(I)")  # the sign, nothing else
+    assert emit_osl(stack) == "\n".join(cycles) + "\n"  # cycles is the default
+    assert f'string lut_dir = "{luts.DATA_DIR}"' in emit_osl(stack)  # absolute package tables by default
+
+
+@pytest.mark.parametrize("case", BUNDLE_CASES)
+def test_bundle_holds_exactly_the_tables_the_shader_reads(tmp_path, case):
+    shader = write_bundle(suite.load(case), tmp_path / "bundle")
+    read = set(LUT_READ.findall(shader.read_text()))
+    assert read and read <= {s.file for s in luts.SPECS.values()} | set(luts.PACKED.values())
+    written = {p.relative_to(shader.parent).as_posix() for p in shader.parent.rglob("*") if p.is_file()}
+    assert written == {shader.name, README} | {f"{TABLES_DIR}/{f}" for f in read}
+    for f in read:
+        assert (shader.parent / TABLES_DIR / f).read_bytes() == (luts.DATA_DIR / f).read_bytes()
+    text = (shader.parent / README).read_text()
+    for f in read:
+        assert f"`{TABLES_DIR}/{f}`" in text
+    assert suite.load(case).name in text and "relative to" in text  # the stack, the lut_dir caveat
+
+
+def test_export_into_a_folder_with_target_and_lut_dir(tmp_path):
+    out = tmp_path / "bundle"
+    r = _cli("varnished_wood", "-o", str(out), "--target", "osl-spec", "--lut-dir", "/opt/lamella/luts")
+    assert r.returncode == 0, r.stderr
+    shader = out / "lamella_varnished_wood.osl"
+    assert str(shader) in r.stdout and str(out / README) in r.stdout
+    lines = shader.read_text().splitlines()
+    assert VIEW_LINES["osl-spec"] in lines and VIEW_LINES["cycles"] not in lines
+    assert '    string lut_dir = "/opt/lamella/luts",' in lines
+    assert "osl-spec" in (out / README).read_text()
+
+
+def test_unknown_target_is_refused(tmp_path):
+    out = tmp_path / "bundle"
+    r = _cli("gold_coated", "-o", str(out), "--target", "renderman")
+    assert r.returncode == 2
+    assert "unknown --target 'renderman'" in r.stderr and "cycles, osl-spec" in r.stderr
+    assert not out.exists()
+    with pytest.raises(ValueError, match="cycles, osl-spec"):
+        emit_osl(suite.load("gold_coated"), view="renderman")
+    with pytest.raises(ValueError, match="cycles, osl-spec"):
+        write_bundle(suite.load("gold_coated"), out, target="renderman")
+    assert not out.exists()

@@ -96,6 +96,8 @@ def _image(mat):
 
 def update(mat) -> None:
     """Refresh the lobe table and the slice preview of ``mat`` from its compiled stack."""
+    import bpy
+
     from ..core.stack import Stack
 
     s = mat.lamella
@@ -114,11 +116,9 @@ def update(mat) -> None:
     img = _image(mat)
     img.pixels.foreach_set(draw_slice(values, theta, transmitted).ravel())
     img.update()
-    try:
+    if not bpy.app.background:  # the panel's icon; headless there is no panel (and 4.5 hangs at exit)
         img.preview_ensure()
         img.preview.reload()
-    except (AttributeError, RuntimeError):  # no previews without a user interface
-        pass
     s.inspected_json = json.dumps({"stack": s.compiled_json, "angle": round(theta, 6)})
     _fresh.add(mat.name_full)
 

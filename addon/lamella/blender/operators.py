@@ -34,16 +34,19 @@ class _MaterialOperator:
 
     @classmethod
     def poll(cls, context):
+        """The context's material qualifies, or (a script naming its material with material=,
+        e.g. in background mode) some material in the file does."""
         mat = context_material(context)
-        if mat is None:  # a script naming its material (background mode has no context material)
-            return bool(bpy.data.materials)
-        if mat.library is not None:
-            cls.poll_message_set("The material is linked from another file")
-            return False
-        if cls.needs_lamella and not mat.lamella.enabled:
-            cls.poll_message_set("The material is not a Lamella material")
-            return False
-        return True
+        if mat is not None and cls._qualifies(mat):
+            return True
+        if any(cls._qualifies(m) for m in bpy.data.materials):
+            return True
+        cls.poll_message_set("No editable Lamella material" if cls.needs_lamella else "No editable material")
+        return False
+
+    @classmethod
+    def _qualifies(cls, mat) -> bool:
+        return mat.library is None and (mat.lamella.enabled or not cls.needs_lamella)
 
     def target(self, context):
         if self.material:
@@ -221,7 +224,10 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
         if not super().poll(context):
             return False
         mat = context_material(context)
-        return mat is None or len(mat.lamella.coats) > 0
+        if mat is not None and cls._qualifies(mat) and not mat.lamella.coats:
+            cls.poll_message_set("There is no coat to remove (the base stays)")
+            return False
+        return True
 
     def run(self, context, mat):
         from . import recompile
@@ -424,7 +430,7 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
 
         out = Path(self.filepath)
         shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
-                              target=self.target_convention, shader_file=out.name)
+                              target=self.target_convention, file_name=out.name)
         self.report({"INFO"}, f"wrote {shader} and its tables")
 
 

@@ -24,21 +24,38 @@ _cache_root: Path | None = None
 
 
 def set_cache_root(path) -> None:
-    """Where compiled shaders are cached (the installed extension: its user folder)."""
+    """Where compiled shaders are cached (the installed extension: its user folder); the
+    LAMELLA_CACHE environment variable still takes precedence."""
     global _cache_root
     _cache_root = Path(path) if path is not None else None
 
 
 def cache_dir() -> Path:
-    base = _cache_root or os.environ.get("LAMELLA_CACHE") or os.path.join(
+    base = os.environ.get("LAMELLA_CACHE") or _cache_root or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "lamella")
     d = Path(base) / "oso"
     d.mkdir(parents=True, exist_ok=True)
     return d
 
 
+# A shader parameter's declaration as the OSL printer writes it, and the stack comment: two sources
+# that differ only there are the same shader with other parameter values.
+_PARAM = re.compile(r"^    (float|int) (\w+) = ([^,\n]+),$", re.M)
+_STACK_LINE = re.compile(r"^// stack: .*$", re.M)
+
+
 def source_hash(source: str) -> str:
-    return hashlib.sha256(source.encode()).hexdigest()
+    """The cache key of ``source``: its structure, not its parameter values. Every layer value is
+    a shader parameter whose socket carries the value, so a value edit reuses the compiled
+    shader of the same structure (``assign_compiled`` sets the sockets from the source)."""
+    structure = _PARAM.sub(r"    \1 \2 = 0,", _STACK_LINE.sub("", source))
+    return hashlib.sha256(structure.encode()).hexdigest()
+
+
+def source_params(source: str) -> dict[str, float | int]:
+    """The parameter defaults ``source`` declares (the stack's values)."""
+    return {m.group(2): (int(m.group(3)) if m.group(1) == "int" else float(m.group(3)))
+            for m in _PARAM.finditer(source)}
 
 
 def _capture_fd2(fn):
@@ -100,8 +117,9 @@ def assign_script(node, text, source: str, name: str = "shader") -> None:
 
 
 def assign_compiled(node, text, source: str, oso: Path) -> None:
-    """``assign_script`` for a shader already compiled to ``oso``. Every input socket takes its
-    parameter's default: a socket kept from an earlier shader (and its links) gets the new value."""
+    """``assign_script`` for a shader already compiled to ``oso`` (possibly from a source of the
+    same structure with other parameter values). Every input socket takes the default ``source``
+    declares: a socket kept from an earlier shader (and its links) gets the new value."""
     import cycles.osl
     import oslquery
 
@@ -116,13 +134,17 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
     if not query:
         raise OSLCompileError(f"OSL query failed to read the compiled shader {oso}")
     used = set()
+    values = source_params(source)
     for param in query.parameters:
         sock = cycles.osl.shader_param_ensure(node, param)
         if sock is not None:
             used.add(sock)
-            if not param.isoutput and param.value is not None and not param.isclosure:
-                value = param.value
-                sock.default_value = value if isinstance(value, (str, int, float)) else tuple(value)
+            if param.isoutput or param.isclosure:
+                continue
+            if param.name in values:
+                sock.default_value = values[param.name]
+            elif isinstance(param.value, str):  # the tables' folder
+                sock.default_value = param.value
     for sockets in (node.inputs, node.outputs):
         for identifier in [s.identifier for s in sockets]:
             if sockets[identifier] not in used:

@@ -21,7 +21,15 @@ def user_dir() -> Path:
     ext = extension_package()
     if ext is not None:
         return Path(bpy.utils.extension_path_user(ext, create=True))
-    return Path(bpy.utils.user_resource("CONFIG", path="lamella", create=True))
+    config = bpy.utils.user_resource("CONFIG", path="lamella", create=True)
+    if config:
+        return Path(config)
+    # Blender run as a module without a user configuration folder: the user's cache folder
+    import os
+
+    d = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "lamella"
+    d.mkdir(parents=True, exist_ok=True)
+    return d
 
 
 def user_presets_dir() -> Path:

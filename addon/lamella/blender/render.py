@@ -20,6 +20,14 @@ def _bpy():
     return bpy
 
 
+def node_tree(idblock):
+    """The node tree of a new material or world: present from Blender 5.0 on, made by
+    ``use_nodes`` before (4.2 to 4.5)."""
+    if idblock.node_tree is None:
+        idblock.use_nodes = True
+    return idblock.node_tree
+
+
 def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: int = 0, open_back: bool = False):
     """The canonical scene, unbiased: no denoiser, no adaptive sampling, no glossy filter and no
     sample clamping, so that renders converge to the same image at any spp and differences
@@ -71,7 +79,7 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     cam.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looks along +y, up = +z
     world = bpy.data.worlds.new("world")
     sc.world = world
-    nodes = world.node_tree.nodes
+    nodes = node_tree(world).nodes
     bg = nodes["Background"]
     if scene == "sphere-env":
         hdri = Path(bpy.utils.system_resource("DATAFILES", path="studiolights/world")) / "forest.exr"
@@ -97,7 +105,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
     bpy = _bpy()
     mat = bpy.data.materials.new("lamella")
     sphere.data.materials.append(mat)
-    nt = mat.node_tree
+    nt = node_tree(mat)
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     if engine == "cycles-osl":

@@ -9,10 +9,17 @@ times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al. 2021 Eq. 
 closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
 the helpers of ``osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
 tables in ``lut_dir``.
+
+The view direction is the one line that depends on the renderer (``view``, one of VIEW_TARGETS):
+Cycles' ``I`` points from the surface toward the viewer, whereas the OSL specification (Gritz et
+al., OSL Language Specification) defines ``I`` as the incident ray direction, pointing toward the
+surface; "osl-spec" negates it. ``lamella.core.backends.osl_bundle`` writes the shader together
+with its tables and a README for use outside Blender.
 """
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 from .. import lobe_kinds, luts
@@ -23,6 +30,14 @@ from .trace import Expr, Tracer
 OSL_DIR = Path(__file__).resolve().parents[4] / "osl"
 LUT_HEADER = "lamella_luts.h"
 ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure
+
+# How each target renderer defines the global ``I``, and the line that turns it into V, the unit
+# vector from the shading point toward the viewer (what the traced model calls wi).
+VIEW_TARGETS = ("cycles", "osl-spec")
+VIEW_LINES = {
+    "cycles": "    vector V = normalize(I);  // Cycles' I points toward the viewer",
+    "osl-spec": "    vector V = -normalize(I);  // OSL specification: I points toward the surface",
+}
 
 _BIN = {"add": "+", "sub": "-", "mul": "*", "div": "/", "lt": "<", "le": "<=", "gt": ">", "ge": ">="}
 _CMP = {"lt", "le", "gt", "ge"}
@@ -120,8 +135,55 @@ class _Printer:
                 f"{spec.shape[0]}, {spec.shape[1]}, {spec.shape[2]})")
 
 
-def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None) -> str:
-    """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``."""
+# oslc's parser holds a statement list on its stack, which overflows ("Syntax error: memory
+# exhausted") near 10000 statements in one block: longer bodies declare their temporaries first and
+# run their statements in blocks of at most BLOCK_STATEMENTS (a deep stack of media and coats).
+MAX_FLAT_STATEMENTS = 6000
+BLOCK_STATEMENTS = 4000
+_DECLARATION = re.compile(r"^    (float|int|color) (\w+)(?: = (.*))?;$")
+
+
+def _blocked(lines: list[str]) -> list[str]:
+    """``lines`` as they are when short enough for oslc's parser; otherwise the temporaries'
+    declarations first (a few hundred names per statement), then the statements as assignments
+    inside ``{ }`` blocks of at most BLOCK_STATEMENTS."""
+    statements = sum(1 for ln in lines if not ln.lstrip().startswith("//"))
+    if statements <= MAX_FLAT_STATEMENTS:
+        return lines
+    names: dict[str, list[str]] = {}
+    body: list[str] = []
+    for ln in lines:
+        m = _DECLARATION.match(ln)
+        if m is None:
+            body.append(ln)
+            continue
+        names.setdefault(m.group(1), []).append(m.group(2))
+        if m.group(3) is not None:
+            body.append(f"    {m.group(2)} = {m.group(3)};")
+    out = []
+    for typ, ns in names.items():
+        out += [f"    {typ} {', '.join(ns[k:k + 200])};" for k in range(0, len(ns), 200)]
+    block, count = ["    {"], 0
+    for ln in body:
+        block.append(ln)
+        count += not ln.lstrip().startswith("//")
+        if count >= BLOCK_STATEMENTS:
+            out += block + ["    }"]
+            block, count = ["    {"], 0
+    return out + block + ["    }"]
+
+
+def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
+             view: str = "cycles") -> str:
+    """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``.
+
+    ``name``: the shader's name (default ``lamella_<stack name>``); ``lut_dir``: the default of
+    the shader's ``lut_dir`` parameter, the folder of the EXR tables (default: the package's data
+    folder, as an absolute path; a relative path is kept as given, to be resolved by the
+    renderer); ``view``: the renderer's convention for ``I`` (VIEW_TARGETS), which sets the one
+    line computing the view direction."""
+    if view not in VIEW_LINES:
+        raise ValueError(f"unknown view target {view!r}: expected one of {', '.join(VIEW_TARGETS)}")
     stack = Stack.coerce(stack)
     v = resolve(model, stack)
     t = Tracer()
@@ -156,11 +218,11 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
         "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(1.0, 0.0, 0.0));",
         "    Tn = normalize(Tn);",
         "    vector Bn = cross(Normal, Tn);",
-        "    vector V = normalize(I);  // Cycles' I points toward the viewer",
+        VIEW_LINES[view],
         "    float wi_x = dot(V, Tn);",
         "    float wi_y = dot(V, Bn);",
         "    float wi_z = dot(V, Normal);",
-        *p.lines,
+        *_blocked(p.lines),
         "    BSDF = 0;",
     ]
     for k, ((w, args), lobe) in enumerate(zip(closures, lobes)):

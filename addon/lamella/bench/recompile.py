@@ -1,0 +1,95 @@
+"""`lamella bench recompile`: how long an artist waits between an edit in the panel and the
+updated material, per stack size.
+
+For each stack the extension's own path is timed in one Blender session: a property edit (a
+value: the top coat's roughness; a structure change: duplicating a coat), then the debounced flush
+the timer would run, which traces the model, compiles the shader (only for a new structure: a
+value edit reuses the compiled shader, its sockets carry the values) and updates the Script node,
+its sockets and the lobe inspector. The
+latency an artist sees is the debounce interval plus that flush. Median of REPEATS edits; the
+trace and compile parts are reported apart.
+"""
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from ..core import suite
+from ..core.stack import MAX_COATS
+from . import BENCH_DIR
+
+REPEATS = 5
+STACKS = (("1 coat", "gold_coated"), ("4 coats", "four_coats"), ("4 coats + medium", None), ("8 coats + media", None))
+
+
+def _stack(label, case):
+    from ..core.stack import Stack
+
+    if case == "gold_coated":
+        return suite.load(case)
+    if case == "four_coats":
+        return suite.example(case)
+    d = suite.example("four_coats").to_dict()
+    dust = {"type": "coat", "ior": 1.0, "thickness": 0.3, "sigma_a": [0.1, 0.11, 0.13], "sigma_s": [1.5, 1.5, 1.5],
+            "g": 0.3}
+    if label.startswith("4"):
+        d["layers"] = [dust] + d["layers"][:3]
+    else:
+        d["layers"] = [dust] + [dict(c, thickness=0.5, sigma_a=[0.1, 0.2, 0.3]) for c in d["layers"]] + d["layers"][:3]
+    return Stack.from_dict(d)
+
+
+def run(out_dir: Path = BENCH_DIR) -> Path:
+    import bpy
+
+    from ..blender import api, recompile, register
+    from ..blender import osl_compile
+
+    register()
+    osl_compile.set_cache_root(Path(tempfile.mkdtemp(prefix="lamella-bench-")))
+    rows = []
+    for label, case in STACKS:
+        stack = _stack(label, case)
+        mat = bpy.data.materials.new(label)
+        api.apply_stack(mat, stack)
+        value, structure, lines = [], [], 0
+        for k in range(REPEATS):
+            mat.lamella.coats[0].coat.roughness = 0.1 + 0.01 * k  # a value edit: a new shader each time
+            t0 = time.perf_counter()
+            recompile.flush()
+            value.append(time.perf_counter() - t0)
+            lines = len(mat.node_tree.nodes["Lamella Shader"].script.as_string().splitlines())
+        full = len(mat.lamella.coats) == MAX_COATS  # make room for the duplicate first
+        mat.lamella.active_index = len(mat.lamella.coats) - 1  # the bottom coat: the medium on top stays
+        for k in range(REPEATS):
+            if full:
+                bpy.ops.lamella.layer_remove(material=mat.name)
+            t0 = time.perf_counter()
+            bpy.ops.lamella.layer_duplicate(material=mat.name)  # a structure change, compiled at once
+            structure.append(time.perf_counter() - t0)
+            if not full:
+                bpy.ops.lamella.layer_remove(material=mat.name)
+        from ..core.backends.osl import emit_osl
+
+        t0 = time.perf_counter()
+        emit_osl(stack)
+        trace = time.perf_counter() - t0
+        rows.append((label, len(stack.coats), mat.lamella.picked_model, lines, trace, statistics.median(value),
+                     statistics.median(structure)))
+    md = [
+        "# Edit-to-updated-material latency",
+        "",
+        "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, Script node sockets, lobe inspector; the "
+        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator (compiled at once). An artist "
+        f"waits the debounce interval ({recompile.DEBOUNCE * 1e3:.0f} ms) plus the value-edit time.",
+        "",
+        "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | structure edit (ms) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for label, n, model, lines, trace, v, s in rows:
+        md.append(f"| {label} | {n} | {model} | {lines} | {trace * 1e3:.0f} | {v * 1e3:.0f} | {s * 1e3:.0f} |")
+    path = Path(out_dir) / "recompile.md"
+    path.write_text("\n".join(md) + "\n")
+    return path

@@ -1,0 +1,339 @@
+"""A self-contained OSL bundle of one stack, for taking the shader to another renderer.
+
+``write_bundle`` writes into one folder:
+
+* ``<shader>.osl``: the generated shader (``lamella.core.backends.osl``) whose ``lut_dir``
+  parameter defaults to the relative path ``"luts"``, with the view line of the target renderer
+  (``osl.VIEW_TARGETS``: Cycles' ``I`` points toward the viewer, the OSL specification's toward
+  the surface);
+* ``luts/``: copies of exactly the EXR tables that shader reads (found in its source, so a table
+  the traced model does not need is not copied);
+* ``README.md``: what the shader is (model, stack), the view convention, the tables, the closures
+  and a table of every shader parameter, described from the layer-kind schema
+  (``lamella.core.layers``), so the descriptions are the ones the stack format documents.
+
+Pure Python (no bpy): usable from the ``lamella`` command anywhere the package runs.
+"""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from .. import lobe_kinds, luts
+from ..layers import BASE_KINDS, COAT_KINDS
+from ..layers.schema import RGB, ROUGHNESS
+from ..models import resolve
+from ..stack import Stack
+from .osl import VIEW_LINES, VIEW_TARGETS, _identifier, emit_osl
+
+TABLES_DIR = "luts"  # the bundle's table folder, and the shader's default lut_dir
+README = "README.md"
+
+_LUT_FILE = re.compile(r'concat\(lut_dir, "/([^"]+)"\)')
+_LOBE = re.compile(r"^\s*// lobe (\d+) \((\w+)\): (.*)$")
+_CLOSURE = re.compile(r"\*\s*(\w+)\(")
+_CHANNELS = {"r": "red", "g": "green", "b": "blue"}
+
+# One line per table for the README (what the shader uses it for); the full account of each
+# table, its axes and its generation is the docstring of lamella.core.luts.
+_TABLE_ROLES = {
+    "ggx_albedo": "GD, the directional albedo of a GGX lobe with F = 1: the lobe normaliser "
+                  "(Randrianandrasana et al. 2021 Eq. 38)",
+    "fresnel_hat_delta": "FGD of any Fresnel curve as a quadrature over Fresnel samples "
+                         "(Randrianandrasana et al. 2021 Eq. 8), for conductors and dielectrics",
+    "tir": "total-internal-reflection correction of a lobe refracted into a coat (Belcour 2018)",
+    "ggx_refract_albedo": "directional albedo of the refracting GGX closure, the normaliser of the "
+                          "transmission lobe",
+}
+
+
+@dataclass(frozen=True)
+class ShaderParam:
+    """One parameter of the shader's declaration, as written in the source."""
+
+    name: str
+    type: str  # OSL type, e.g. "float", "normal", "closure color"
+    default: str  # the default expression as written
+    output: bool = False
+
+
+# ---------------------------------------------------------------- reading the generated source
+def table_files(src: str) -> list[str]:
+    """The EXR files (relative to ``lut_dir``) the shader ``src`` reads, sorted."""
+    return sorted(set(_LUT_FILE.findall(src)))
+
+
+def shader_name(src: str) -> str:
+    m = re.search(r"^shader (\w+)\($", src, re.M)
+    if not m:
+        raise ValueError("no shader declaration in the source")
+    return m.group(1)
+
+
+def shader_parameters(src: str) -> list[ShaderParam]:
+    """Every parameter of the shader declaration of a source written by ``emit_osl`` (one
+    parameter per line between ``shader NAME(`` and ``{``), in declaration order."""
+    lines = src.splitlines()
+    start = next(i for i, ln in enumerate(lines) if re.match(r"^shader \w+\($", ln))
+    out = []
+    for ln in lines[start + 1:]:
+        if ln.strip() == "{":
+            break
+        decl = ln.strip()
+        decl = decl[:-1] if decl.endswith(",") else decl
+        if decl.endswith(")") and decl.count(")") > decl.count("("):
+            decl = decl[:-1]  # the parenthesis closing the parameter list
+        left, default = (s.strip() for s in decl.split("=", 1))
+        words = left.split()
+        output = words[0] == "output"
+        if output:
+            words = words[1:]
+        out.append(ShaderParam(words[-1], " ".join(words[:-1]), default, output))
+    return out
+
+
+# ---------------------------------------------------------------- describing parameters
+def _short(f) -> str:
+    """A field's description; for a roughness, without the part after its colon, which describes
+    the JSON form ("a number or [alpha_x, alpha_y]") rather than a shader input."""
+    return f.description.split(":", 1)[0].strip() if f.type == ROUGHNESS else f.description
+
+
+def _with_unit(text: str, unit: str) -> str:
+    return f"{text} [{unit}]" if unit else text
+
+
+def describe_parameter(name: str, stack: Stack) -> str:
+    """What a shader parameter is, from its name pattern (``coat{i}_<field>``, ``base_<field>``,
+    with ``_r/_g/_b`` for an RGB field and ``_alpha``, ``_alpha_x``, ``_alpha_y`` for a GGX
+    roughness) and the field's description in its layer kind's schema."""
+    fixed = {
+        "Normal": "shading normal (default: the renderer's N)",
+        "Tangent": "x axis of the anisotropic layers' roughness and rotation, projected onto the "
+                   "normal's plane; zero (default) uses the direction of a turn about the z axis "
+                   "through P, i.e. vector(-P[1], P[0], 0)",
+        "lut_dir": "folder of the EXR look-up tables, read with texture() (see Look-up tables)",
+        "BSDF": "output: the layered material's closure, a sum of weighted lobes (see Closures)",
+    }
+    if name in fixed:
+        return fixed[name]
+    m = re.match(r"^(coat(\d+)|base)_(.+)$", name)
+    if not m:
+        return "shader input"
+    if m.group(2) is not None:
+        i = int(m.group(2))
+        if i >= len(stack.coats):
+            return "shader input"
+        layer = stack.coats[i]
+        kind = COAT_KINDS[layer.type]
+        where = f"coat {i}" + (" (top)" if i == 0 else "")
+    else:
+        kind = BASE_KINDS[stack.base.type]
+        where = f"base ({stack.base.type})"
+    rest = m.group(3)
+    fields = {f.name: f for f in kind.fields}
+    rough = next((f for f in kind.fields if f.type == ROUGHNESS), None)
+    if rough is not None and rest in ("alpha", "alpha_x", "alpha_y"):
+        text = _short(rough)
+        text += {"alpha": ", isotropic", "alpha_x": " along the tangent (x)",
+                 "alpha_y": " along the bitangent (y)"}[rest]
+        return f"{where}: {text} [GGX alpha = Blender roughness squared]"
+    if rest in fields:
+        f = fields[rest]
+        return f"{where}: {_with_unit(_short(f), f.unit)}"
+    base, _, ch = rest.rpartition("_")
+    if base in fields and fields[base].type == RGB and ch in _CHANNELS:
+        f = fields[base]
+        return f"{where}: {_with_unit(_short(f), f.unit)}, {_CHANNELS[ch]} channel"
+    return f"{where}: shader input"
+
+
+# ---------------------------------------------------------------- the README
+def _stack_json(stack: Stack) -> str:
+    """The stack as JSON that ``lamella`` reads back, one layer per line."""
+    d = stack.to_dict()
+    layers = ",\n".join(f"    {json.dumps(layer)}" for layer in d["layers"])
+    return "\n".join(["{", f'  "name": {json.dumps(d["name"])},',
+                       '  "layers": [' + (f"\n{layers}\n  ]," if layers else "],"),
+                       f'  "base": {json.dumps(d["base"])}', "}"])
+
+
+def _layer_order(name: str) -> tuple[int, int]:
+    """Coats from the top, then the base, then the inputs every shader has (stable within)."""
+    m = re.match(r"^coat(\d+)_", name)
+    if m:
+        return (0, int(m.group(1)))
+    return (1, 0) if name.startswith("base_") else (2, 0)
+
+
+def _view_section(target: str) -> list[str]:
+    line = VIEW_LINES[target].strip()
+    if target == "cycles":
+        why = ("Blender's Cycles convention: the global `I` points from the shading point toward the "
+               "viewer, so the shader uses it as it is. Use this target in Blender's Script node (or "
+               "any renderer with the same convention).")
+    else:
+        why = ("The OSL specification's convention: `I` is the incident ray direction, pointing toward "
+               "the surface, so the shader negates it. Use this target in renderers that follow the "
+               "specification.")
+    return [
+        "## View convention",
+        "",
+        f"Target `{target}`: `{line}`",
+        "",
+        why,
+        "",
+        "`V` is the unit vector toward the viewer; it is the only line that differs between the "
+        f"targets ({', '.join(f'`{t}`' for t in VIEW_TARGETS)}). If the material renders black or "
+        "inside-out, the renderer uses the other convention: export again with "
+        "`lamella export-osl ... --target <other>`.",
+        "",
+    ]
+
+
+def _tables_section(files: list[str], lut_default: str) -> list[str]:
+    by_file = {s.file: (s.name, s.shape, f"one channel ({s.channel})") for s in luts.SPECS.values()}
+    for name, f in luts.PACKED.items():
+        by_file[f] = (name, luts.SPECS[name].shape, "RGBA: four slices of the last axis per texel")
+    out = [
+        "## Look-up tables",
+        "",
+        f"The shader reads {len(files)} float EXR table{'s' if len(files) != 1 else ''} with `texture()`, "
+        f"at `lut_dir + \"/<file>\"`; the parameter `lut_dir` defaults to `\"{lut_default}\"`.",
+        "",
+    ]
+    if not Path(lut_default).is_absolute():
+        out += [
+            "OSL texture paths are resolved by the renderer, typically relative to its working directory or "
+            "its texture search path, not to the shader file. When in doubt, set `lut_dir` to the absolute "
+            f"path of the `{TABLES_DIR}/` folder of this bundle.",
+            "",
+        ]
+    out += ["| file | table | shape | layout | used for |", "|---|---|---|---|---|"]
+    for f in files:
+        name, shape, layout = by_file.get(f, (f, (), ""))
+        layout += ", slices stacked vertically" if len(shape) == 3 else ""
+        role = _TABLE_ROLES.get(name, "see lamella.core.luts")
+        out.append(f"| `{TABLES_DIR}/{f}` | `{name}` | {' x '.join(map(str, shape))} | {layout} | {role} |")
+    out += ["", "Tables are node-centred and read with linear interpolation, clamped at the edges "
+            "(`osl/lamella_luts.h`, inlined in the shader).", ""]
+    return out
+
+
+def _closures_section(src: str) -> list[str]:
+    lobes = [m.groups() for m in map(_LOBE.match, src.splitlines()) if m]
+    closures = sorted(set(_CLOSURE.findall("\n".join(ln for ln in src.splitlines() if "BSDF +=" in ln))))
+    out = ["## Closures", "",
+           "`BSDF` is a sum of lobes, each a standard-library closure with a colour weight:", ""]
+    for k, kind, _ in lobes:
+        out.append(f"- lobe {k}, `{kind}`: {lobe_kinds.kind(kind).description}")
+    out += [
+        "",
+        f"Closures called: {', '.join(f'`{c}`' for c in closures)} (as declared in `stdosl.h`). A lobe's "
+        "weight is its energy times the closure's normaliser; for GGX that is 1 / GD, the directional "
+        "albedo of a single-scattering GGX closure with height-correlated Smith masking (Heitz 2014; "
+        "Randrianandrasana et al. 2021 Eq. 37), which is what Cycles' `microfacet(\"ggx\", ...)` reflects. "
+        "A renderer whose GGX closure adds multiple-scattering energy, or uses another masking term, "
+        "renders the lobes slightly brighter or darker.",
+        "",
+    ]
+    return out
+
+
+def readme(stack, src: str, model_name: str, target: str, shader_file: str, picked: bool = False) -> str:
+    """The README of a bundle: shader ``src`` (as written to ``shader_file``) of ``stack`` under
+    the model ``model_name`` (``picked``: chosen by "auto"), for the view ``target``."""
+    stack = Stack.coerce(stack)
+    name = shader_name(src)
+    params = shader_parameters(src)
+    lut_default = next((p.default.strip('"') for p in params if p.name == "lut_dir"), TABLES_DIR)
+    n = len(stack.coats)
+    layers = f"{n} coat{'s' if n != 1 else ''} over a {stack.base.type} base"
+    lines = [
+        f"# `{name}`: Lamella layered material as an OSL shader",
+        "",
+        f"`{shader_file}` renders the layered stack `{stack.name or 'stack'}` ({layers}) with Lamella's "
+        f"`{model_name}` model{' (picked by `auto` for this structure)' if picked else ''}, as one straight-line OSL "
+        "surface shader. It was "
+        "generated by `lamella export-osl`: regenerate it rather than editing it.",
+        "",
+        "Compile with `oslc " + shader_file + "` (it includes `stdosl.h`, which `oslc` supplies); connect "
+        "the output `BSDF` as the surface closure.",
+        "",
+        "Stack (coats top to bottom; `lamella` reads this JSON back):",
+        "",
+        "```json",
+        _stack_json(stack),
+        "```",
+        "",
+        *_view_section(target),
+        *_tables_section(table_files(src), lut_default),
+        *_closures_section(src),
+        "## Parameters",
+        "",
+        "Every input and the output of the shader, layer by layer from the top coat. Defaults are the "
+        "stack's values; the layer "
+        "parameters are the fields of the stack format (coat 0 is the top coat). Roughness parameters "
+        "(`*_alpha`, `*_alpha_x`, `*_alpha_y`) are GGX alpha, that is Blender's roughness squared; "
+        "rotations are in radians. Whether a layer is anisotropic, absorbing or scattering is part of "
+        "the shader's structure: a parameter absent here needs a new export.",
+        "",
+        "| name | type | default | description |",
+        "|---|---|---|---|",
+    ]
+    for p in sorted(params, key=lambda p: _layer_order(p.name)):
+        t = f"output {p.type}" if p.output else p.type
+        lines.append(f"| `{p.name}` | {t} | `{p.default}` | {describe_parameter(p.name, stack)} |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- the bundle
+def write_bundle(stack, out_dir, model: str = "auto", target: str = "cycles", *, file_name: str | None = None,
+                 lut_dir: str | Path | None = None) -> Path:
+    """Write the bundle of ``stack`` into ``out_dir`` (created) and return the shader's path.
+
+    ``target``: the view convention (``osl.VIEW_TARGETS``); ``file_name``: the shader file's name
+    (default ``lamella_<stack name>.osl``); the shader is named after its stem, as ``oslc`` names
+    the compiled ``.oso`` after the shader; ``lut_dir``: the default of the shader's ``lut_dir``
+    parameter (default ``"luts"``, the bundle's own table folder, relative). The tables the
+    shader reads are copied into ``out_dir/luts`` whatever ``lut_dir`` is. Files already in
+    ``out_dir`` that the bundle does not write are left alone."""
+    if target not in VIEW_TARGETS:
+        raise ValueError(f"unknown target {target!r}: expected one of {', '.join(VIEW_TARGETS)}")
+    stack = Stack.coerce(stack)
+    out_dir = Path(out_dir)
+    if file_name is None:
+        shader = _identifier(f"lamella_{stack.name or 'stack'}")
+        file_name = f"{shader}.osl"
+    else:
+        shader = _identifier(Path(file_name).stem)
+    model_name = resolve(model, stack).name
+    src = emit_osl(stack, model=model, name=shader, lut_dir=lut_dir if lut_dir else TABLES_DIR, view=target)
+    files = table_files(src)
+    missing = [f for f in files if not (luts.DATA_DIR / f).exists()]
+    if missing:
+        raise FileNotFoundError(f"look-up tables {', '.join(missing)} are missing from {luts.DATA_DIR}: "
+                                "run `lamella luts` to generate them")
+    (out_dir / TABLES_DIR).mkdir(parents=True, exist_ok=True)
+    for f in files:
+        shutil.copyfile(luts.DATA_DIR / f, out_dir / TABLES_DIR / f)
+    shader_path = out_dir / file_name
+    shader_path.write_text(src)
+    (out_dir / README).write_text(readme(stack, src, model_name, target, file_name, picked=model == "auto"))
+    return shader_path
+
+
+def bundle_files(shader_path: Path) -> list[Path]:
+    """The files of the bundle whose shader is ``shader_path``: the shader, the README and the
+    tables it reads."""
+    shader_path = Path(shader_path)
+    src = shader_path.read_text()
+    return [shader_path, shader_path.parent / README] + [shader_path.parent / TABLES_DIR / f for f in table_files(src)]
+
+
+__all__ = ["write_bundle", "bundle_files", "readme", "table_files", "shader_parameters", "shader_name",
+           "describe_parameter", "ShaderParam", "TABLES_DIR", "README", "VIEW_TARGETS"]

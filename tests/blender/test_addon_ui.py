@@ -1,0 +1,112 @@
+"""The panel's draw code against a recording stand-in layout (panels never draw headless): every
+property path it draws resolves on a real material, every operator, menu and list it names is
+registered, in every state the panel has (each base kind and conductor mode, anisotropic layers,
+media, errors, a plain material, render-setting problems)."""
+import pytest
+
+from lamella.core import suite
+
+pytest.importorskip("bpy")
+from lamella.blender import api, ui  # noqa: E402
+
+from .addon_helpers import RecordingLayout  # noqa: E402
+
+
+class _Context:
+    def __init__(self, scene):
+        self.scene = scene
+
+
+def _draw(addon, mat):
+    layout = RecordingLayout()
+    ui.draw_material(layout, _Context(addon.context.scene), mat)
+    return layout
+
+
+def _check(addon, layout):
+    assert layout.props or layout.operators, "nothing drawn"
+    for data, name in layout.props:
+        assert name in data.bl_rna.properties, f"{data!r} has no property {name!r}"
+        getattr(data, name)  # resolves
+    for idname in layout.operators:
+        cat, op = idname.split(".")
+        assert hasattr(getattr(addon.ops, cat), op) and getattr(getattr(addon.ops, cat), op).get_rna_type(), idname
+    for menu in layout.menus:
+        assert hasattr(addon.types, menu), menu
+    for ul in layout.lists:
+        assert hasattr(addon.types, ul), ul
+
+
+def _paths(layout):
+    return {name for _, name in layout.props}
+
+
+@pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "fog_g09_d1", "varnished_wood", "rough_glass_plate",
+                                  "tinted_varnish"])
+def test_panel_draws_only_real_properties(addon, case):
+    mat = addon.data.materials.new(f"ui_{case}")
+    api.apply_stack(mat, suite.load(case))
+    layout = _draw(addon, mat)
+    _check(addon, layout)
+    assert {"coats", "active_index", "kind", "model", "inspect_angle"} <= _paths(layout)
+
+
+def test_anisotropic_layers_show_both_roughnesses_and_the_rotation(addon):
+    mat = addon.data.materials.new("ui_aniso")
+    api.apply_stack(mat, suite.load("rotated_60"))
+    paths = _paths(_draw(addon, mat))
+    assert {"roughness", "roughness_y", "roughness_anisotropic", "rotation"} <= paths
+    iso = addon.data.materials.new("ui_iso")
+    api.apply_stack(iso, suite.load("gold_coated"))
+    paths = _paths(_draw(addon, iso))
+    assert "roughness_y" not in paths and "rotation" not in paths
+
+
+@pytest.mark.parametrize("mode,shown", [("MEASURED", "metal"), ("ARTIST", "edge_tint"), ("CUSTOM", "eta")])
+def test_every_conductor_mode_draws(addon, mode, shown):
+    mat = addon.data.materials.new(f"ui_{mode}")
+    api.apply_stack(mat, suite.load("gold_coated"))
+    mat.lamella.base.conductor.mode = mode
+    layout = _draw(addon, mat)
+    _check(addon, layout)
+    assert shown in _paths(layout)
+
+
+def test_plain_material_error_state_and_render_problems_draw(addon):
+    plain = addon.data.materials.new("ui_plain")
+    layout = _draw(addon, plain)
+    _check(addon, layout)
+    assert "lamella.enable" in layout.operators
+    mat = addon.data.materials.new("ui_error")
+    api.apply_stack(mat, suite.load("gold_coated"))
+    mat.lamella.status, mat.lamella.status_message = "ERROR", "coat 0, field 'ior': a message"
+    sc = addon.context.scene
+    engine, osl = sc.render.engine, sc.cycles.shading_system
+    try:
+        sc.render.engine = "CYCLES"
+        sc.cycles.shading_system = False
+        layout = _draw(addon, mat)
+        _check(addon, layout)
+        assert "lamella.fix_render_settings" in layout.operators
+        assert any("coat 0, field 'ior'" in t for t in layout.labels)
+    finally:
+        sc.render.engine, sc.cycles.shading_system = engine, osl
+
+
+def test_menus_draw(addon):
+    for menu in (ui.LAMELLA_MT_add_layer, ui.LAMELLA_MT_presets, ui.LAMELLA_MT_stack_files):
+        layout = RecordingLayout()
+        fake = type("M", (), {"layout": layout})()
+        menu.draw(fake, None)
+        _check(addon, layout)
+        assert layout.operators, menu.__name__
+
+
+def test_layer_list_draws_each_item(addon):
+    mat = addon.data.materials.new("ui_list")
+    api.apply_stack(mat, suite.load("three_coats"))
+    layout = RecordingLayout()
+    for item in mat.lamella.coats:
+        ui.LAMELLA_UL_layers.draw_item(None, None, layout, mat.lamella, item, 0, mat.lamella, "active_index")
+    _check(addon, layout)
+    assert _paths(layout) == {"name", "show"}
