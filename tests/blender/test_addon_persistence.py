@@ -38,12 +38,12 @@ def test_save_reload_render_gives_the_same_image(addon, tmp_path):
     addon.ops.wm.save_as_mainfile(filepath=str(path))
     addon.ops.wm.open_mainfile(filepath=str(path))
     mat = addon.data.materials["saved"]
-    assert api.read_stack(mat) == Stack_dict("tinted_varnish")
+    assert api.read_stack(mat) == _normalised("tinted_varnish")
     after = render(addon.context.scene)
     np.testing.assert_allclose(after, before, atol=1e-4)
 
 
-def Stack_dict(case):
+def _normalised(case):
     from lamella.core import Stack
 
     return Stack.from_dict(suite.load(case).to_dict()).to_dict()

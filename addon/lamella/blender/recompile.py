@@ -155,7 +155,8 @@ def _flush_before(*_args):
 
 @persistent
 def _after_load(*_args):
-    """A .blend made elsewhere: point its shaders at this installation's tables."""
+    """A .blend made elsewhere: point its shaders at this installation's tables; redraw the lobe
+    inspectors' previews (images are not saved with their pixels)."""
     from ..core import luts
     from . import material_nodes
 
@@ -163,6 +164,7 @@ def _after_load(*_args):
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled:
             material_nodes.refresh_lut_dir(mat, str(luts.DATA_DIR))
+            schedule_inspector(mat)
 
 
 _HANDLERS = (("render_pre", _flush_before), ("save_pre", _flush_before), ("load_post", _after_load))

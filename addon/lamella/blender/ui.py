@@ -191,7 +191,7 @@ def draw_model(layout, mat) -> None:
 
 
 def draw_inspector(layout, mat) -> None:
-    from . import inspector, recompile
+    from . import inspector
 
     s = mat.lamella
     header, body = layout.panel("lamella_inspector", default_closed=True)
@@ -205,8 +205,6 @@ def draw_inspector(layout, mat) -> None:
     if s.preview is not None and inspector.is_fresh(mat):
         body.template_icon(icon_value=s.preview.preview.icon_id if s.preview.preview else 0, scale=8.0)
         body.label(text="Slice in the plane of incidence (square-root scale); yellow: the view")
-    elif s.status == "OK":
-        recompile.schedule_inspector(mat)  # queues work for the timer; draws nothing heavy
     grid = body.grid_flow(columns=4, even_columns=True, align=True)
     for text in ("Lobe", "Energy", "Roughness", "Anisotropy"):
         grid.label(text=text)
@@ -340,14 +338,7 @@ classes = (LAMELLA_UL_layers, LAMELLA_MT_add_layer, LAMELLA_MT_presets, LAMELLA_
            LAMELLA_PT_material, LAMELLA_PT_node_editor)
 
 
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)
 
 
 __all__ = ["draw_material", "context_material", "classes"]
