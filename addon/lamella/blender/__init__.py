@@ -3,9 +3,12 @@ the canonical render scenes. ``register()`` / ``unregister()`` install the exten
 and handlers (the top-level extension module calls them)."""
 from __future__ import annotations
 
+import atexit
 import importlib
 
 _MODULES = ("properties", "recompile", "operators", "ui")
+_registered = False
+_exit_hook = False
 
 
 def _modules():
@@ -13,13 +16,28 @@ def _modules():
 
 
 def register():
+    global _registered, _exit_hook
     from . import osl_compile, paths
 
     osl_compile.set_cache_root(paths.cache_dir())
     for m in _modules():
         m.register()
+    _registered = True
+    if not _exit_hook:
+        # Blender disables its add-ons before it finalises Python; the bpy module (4.x) does not,
+        # and a process that still holds a property with a Python update callback then never
+        # exits. Unregistering at interpreter exit does what Blender's own exit would.
+        atexit.register(_unregister_at_exit)
+        _exit_hook = True
 
 
 def unregister():
+    global _registered
     for m in reversed(_modules()):
         m.unregister()
+    _registered = False
+
+
+def _unregister_at_exit():
+    if _registered:
+        unregister()
