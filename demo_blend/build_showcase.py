@@ -106,4 +106,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from lamella.blender import exit_process
+
+    exit_process(main())

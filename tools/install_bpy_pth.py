@@ -21,7 +21,9 @@ if spec is None or not spec.submodule_search_locations:
 bpy_dir = Path(list(spec.submodule_search_locations)[0])
 bundled = sorted(bpy_dir.glob("*/python/lib/python3.*/site-packages"))
 if not bundled:
-    sys.exit(f"no bundled site-packages under {bpy_dir}")
+    # older wheels (4.2) ship no Python packages of their own: nothing to add
+    print(f"no bundled site-packages under {bpy_dir}: nothing to add")
+    sys.exit(0)
 pth = site / "lamella_bpy_bundled.pth"
 pth.write_text(str(bundled[-1]) + "\n")
 print(f"wrote {pth} -> {bundled[-1]}")

@@ -354,5 +354,16 @@ def main(argv=None) -> int:
     return args.fn(args)
 
 
+def run() -> None:
+    """The ``lamella`` command: ``main``, then the process ends; as Blender ends when a command
+    ran Blender (``lamella.blender.exit_process``)."""
+    code = main()
+    if "bpy" in sys.modules:
+        from .blender import exit_process
+
+        exit_process(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

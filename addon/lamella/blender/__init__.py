@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import atexit
 import importlib
+import os
+import sys
 
 _MODULES = ("properties", "recompile", "operators", "ui")
 _registered = False
@@ -41,3 +43,13 @@ def unregister():
 def _unregister_at_exit():
     if _registered:
         unregister()
+
+
+def exit_process(code: int = 0):
+    """End a process that imported the bpy module the way Blender ends (its own exit path, not
+    Python's finalisation): the bpy module 4.2 crashes while finalising Python once an add-on
+    property has a Python callback, after all work is done, and a pipeline would read the crash as
+    a failure. Output streams are flushed first."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)

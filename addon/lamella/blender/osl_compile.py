@@ -121,7 +121,6 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
     same structure with other parameter values). Every input socket takes the default ``source``
     declares: a socket kept from an earlier shader (and its links) gets the new value."""
     import cycles.osl
-    import oslquery
 
     text.clear()
     text.write(source)
@@ -130,6 +129,11 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
     bytecode = oso.read_text()
     node.bytecode = bytecode
     node.bytecode_hash = hashlib.md5(bytecode.encode(), usedforsecurity=False).hexdigest()
+    try:
+        import oslquery
+    except ImportError:  # Blender 4.2 to 4.4: Cycles makes the sockets itself, in C++
+        _update_sockets_in_cycles(node, source, oso)
+        return
     query = oslquery.OSLQuery(str(oso))
     if not query:
         raise OSLCompileError(f"OSL query failed to read the compiled shader {oso}")
@@ -149,3 +153,18 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
         for identifier in [s.identifier for s in sockets]:
             if sockets[identifier] not in used:
                 sockets.remove(sockets[identifier])
+
+
+def _update_sockets_in_cycles(node, source: str, oso: Path) -> None:
+    """Blender before 4.5 has no ``oslquery`` module: Cycles' ``osl_update_node`` reads the
+    shader's parameters and makes (and removes) the sockets; then every input takes the default
+    ``source`` declares."""
+    import _cycles
+    import bpy
+
+    if not _cycles.osl_update_node(bpy.data.as_pointer(), node.id_data.as_pointer(), node.as_pointer(), str(oso)):
+        raise OSLCompileError(f"Cycles failed to read the compiled shader {oso}")
+    values = source_params(source)
+    for sock in node.inputs:
+        if sock.name in values and hasattr(sock, "default_value"):
+            sock.default_value = values[sock.name]

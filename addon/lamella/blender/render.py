@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 
-ENGINES = ("cycles-osl", "principled", "reference")
+ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "reference")
 SCENES = ("sphere-env", "sphere-sun", "white-furnace")
 # white-furnace (not a canonical comparison scene): a uniform white world of radiance 1, so every
 # sphere pixel shows the material's directional albedo for that pixel's view direction.
@@ -116,6 +116,23 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
         name = f"lamella_{stack.name or 'stack'}.osl"
         assign_script(node, bpy.data.texts.new(name), emit_osl(stack, model), name)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    elif engine in ("cycles-nodes", "eevee"):
+        from ..core.backends.node_graph import emit_plan
+        from .node_group import build_group, group_name
+
+        target = "eevee" if engine == "eevee" else "cycles"
+        group = build_group(emit_plan(stack, model, target), group_name(stack.name))
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        tangent = nt.nodes.new("ShaderNodeTangent")
+        tangent.direction_type = "RADIAL"
+        tangent.axis = "Z"
+        nt.links.new(tangent.outputs["Tangent"], node.inputs["Tangent"])
+        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+        if engine == "cycles-nodes":
+            sphere.users_scene[0].cycles.shading_system = False
+        else:
+            use_eevee(sphere.users_scene[0])
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
     elif engine == "principled":
@@ -123,6 +140,15 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
     else:
         raise ValueError(f"engine {engine!r} is not available yet (have: {', '.join(ENGINES)})")
     return mat
+
+
+def use_eevee(sc):
+    """Render ``sc`` with EEVEE as it works headless here: shadows off (see docs/extension.md)."""
+    bpy = _bpy()
+    engines = {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
+    sc.render.engine = "BLENDER_EEVEE" if "BLENDER_EEVEE" in engines else "BLENDER_EEVEE_NEXT"
+    sc.eevee.taa_render_samples = sc.cycles.samples
+    sc.eevee.use_shadows = False
 
 
 def _principled(nt, stack):

@@ -1,7 +1,8 @@
 """The lobe kinds: one table that says, for every kind of lobe a model emits, how it is evaluated,
 how its weight is normalised, which side of the surface it lights and which Cycles closure
-renders it (DESIGN.md "Where a new kind goes"). ``lamella.core.api.evaluate`` (numpy), the OSL
-emitter and, later, the node-graph emitter all read this table and nothing else about lobes.
+renders it, in OSL and as a Blender BSDF node (DESIGN.md "Where a new kind goes").
+``lamella.core.api.evaluate`` (numpy), the OSL emitter and the node-graph emitter all read this
+table and nothing else about lobes.
 
 A lobe of weight ``e`` (RGB energy) contributes ``e * scale(wi) * closure_cos(wi, wo)`` to
 f(wi, wo) |wo.z|, where ``closure_cos`` is exactly what the renderer's closure evaluates (f cos
@@ -25,12 +26,27 @@ GD_FLOOR = 1e-6  # GD is >= 0.2 for every alpha <= 1 at wi.z >= 0; the floor onl
 
 
 @dataclass(frozen=True)
+class BsdfNode:
+    """The Blender BSDF node that renders a lobe (the node-graph backend): its type and
+    properties, its float sockets as backend values, and its vector sockets as local-frame
+    triples (x along the shading tangent, y the bitangent, z the normal) of backend values, or
+    None to leave the socket unlinked. The ``Color`` socket takes the lobe's weight."""
+
+    bl_idname: str
+    props: dict
+    floats: dict
+    vectors: dict
+
+
+@dataclass(frozen=True)
 class LobeKind:
     """``closure_cos(ops, lobe, wi, wo)``: f cos of the closure of weight 1 (backend values);
     ``scale(ops, lobe, wi)``: the normaliser; ``side``: ``"reflected"`` or ``"transmitted"``;
     ``args(ops, lobe, wi)``: the closure's arguments as named backend values (roughness, axes,
     normal), which a backend prints or wires; ``osl(a)``: the Cycles OSL closure call, given the
-    printed expressions ``a`` of those arguments; ``description``: one line for docs and tables;
+    printed expressions ``a`` of those arguments; ``bsdf(ops, a, wi, target)``: the Blender BSDF
+    node (``BsdfNode``) for target "cycles" (the same closure as ``osl``) or "eevee" (its stand-in
+    where EEVEE cannot render it); ``description``: one line for docs and tables;
     ``rough``: the lobe is a microfacet lobe, a delta at zero roughness."""
 
     name: str
@@ -39,6 +55,7 @@ class LobeKind:
     scale: Callable
     args: Callable
     osl: Callable
+    bsdf: Callable
     description: str
     rough: bool = True
 
@@ -187,6 +204,52 @@ def _osl_transmission(a: dict) -> str:
     return f'microfacet("ggx", {n}, {a["alpha"]}, {REFRACT_ETA!r}, 1)'
 
 
+def blender_anisotropy(ops, ax, ay):
+    """Blender's (Roughness, Anisotropy) of a GGX lobe with roughness ax along its tangent and ay
+    across it: the Glossy BSDF sets alpha = r^2 and, for anisotropy a >= 0, alpha_x = alpha (1 - a),
+    alpha_y = alpha / (1 - a), for a < 0 alpha_x = alpha / (1 + a), alpha_y = alpha (1 + a)
+    (Cycles 5.0, ``svm_node_closure_bsdf``). So alpha = sqrt(ax ay) and |a| = 1 - sqrt(min / max);
+    Cycles clamps |a| to 0.99, an axis ratio of 10^4."""
+    q = ops.sqrt((ops.min(ax, ay) + 1e-12) / (ops.max(ax, ay) + 1e-12))  # 1 for isotropic, even at 0
+    return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, 1.0 - q, q - 1.0)
+
+
+def _bsdf_ggx_reflection(ops, a, wi, target):
+    """Glossy BSDF (GGX) on the lobe's axes. EEVEE ignores anisotropy: its lobe takes the
+    isotropic roughness ``eevee_isotropic_alpha``."""
+    if target == "eevee":
+        r = ops.sqrt(eevee_isotropic_alpha(ops, a["ax"], a["ay"]))
+        return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"}, {"Roughness": r, "Anisotropy": 0.0},
+                        {"Normal": (0.0, 0.0, 1.0), "Tangent": None})
+    r, aniso = blender_anisotropy(ops, a["ax"], a["ay"])
+    return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"}, {"Roughness": r, "Anisotropy": aniso},
+                    {"Normal": (0.0, 0.0, 1.0), "Tangent": (a["cos"], a["sin"], 0.0)})
+
+
+def eevee_isotropic_alpha(ops, ax, ay):
+    """The isotropic roughness standing in for an anisotropic lobe where the renderer has no
+    anisotropy (EEVEE): the RMS roughness, the width whose GD normalises the lobe."""
+    return rms_alpha(ops, ax, ay)
+
+
+def _bsdf_backscatter(ops, a, wi, target):
+    """Glossy BSDF (GGX, isotropic) about the view direction."""
+    return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"},
+                    {"Roughness": ops.sqrt(a["alpha"]), "Anisotropy": 0.0},
+                    {"Normal": tuple(wi), "Tangent": None})
+
+
+def _bsdf_transmission(ops, a, wi, target):
+    """Refraction BSDF (GGX) at index REFRACT_ETA about the closure normal."""
+    return BsdfNode("ShaderNodeBsdfRefraction", {"distribution": "GGX"},
+                    {"Roughness": ops.sqrt(a["alpha"]), "IOR": REFRACT_ETA},
+                    {"Normal": (a["nx"], a["ny"], a["nz"])})
+
+
+def _bsdf_diffuse(ops, a, wi, target):
+    return BsdfNode("ShaderNodeBsdfDiffuse", {}, {"Roughness": 0.0}, {"Normal": (0.0, 0.0, 1.0)})
+
+
 def _lambert_closure_cos(ops, lobe, wi, wo):
     return ops.select(wo[2] > 0.0, wo[2] * (1.0 / math.pi), 0.0)
 
@@ -205,14 +268,14 @@ def _osl_diffuse(a: dict) -> str:
 
 KINDS: dict[str, LobeKind] = {k.name: k for k in (
     LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _ggx_args, _osl_ggx_reflection,
-             "GGX reflection about the mirror direction, GD-normalised"),
-    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args, _osl_diffuse,
+             _bsdf_ggx_reflection, "GGX reflection about the mirror direction, GD-normalised"),
+    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args, _osl_diffuse, _bsdf_diffuse,
              "Lambertian reflection (the light a diffuse base sends back up)", rough=False),
     LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _backscatter_args,
-             _osl_backscatter,
+             _osl_backscatter, _bsdf_backscatter,
              "GGX reflection about the incident direction (light back-scattered by a medium)"),
     LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale, _transmission_args,
-             _osl_transmission, "GGX refraction lobe about the transmitted direction, below a dielectric base"),
+             _osl_transmission, _bsdf_transmission, "GGX refraction lobe about the transmitted direction, below a dielectric base"),
 )}
 
 

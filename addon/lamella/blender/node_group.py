@@ -1,0 +1,371 @@
+"""Build the node group of a stack from its node plan (``lamella.core.backends.node_graph``).
+
+The group ``Lamella <stack>`` has one float input per model parameter (named as the Script node's
+sockets, so textures plug in the same way), a ``Normal`` and a ``Tangent`` input (unlinked: the
+shading normal, and the tangent radial about the object's z, as in the OSL shader) and a ``BSDF``
+output. Inside it:
+
+- the local frame (the tangent made orthogonal to the normal, the bitangent) and the view
+  direction in it, from the Geometry node's Incoming (``_frame``);
+- the model's math as nested groups of at most ``CHUNK_NODES`` nodes (``_chunk_group``), one run
+  of a section each, shared by name between every material and stack whose chunk is the same:
+  an edit rebuilds only the chunks whose content changed;
+- one BSDF node per lobe, in frames, summed by Add Shader nodes.
+
+Rebuilding keeps the group (its name, its users and the links into its sockets): the group's
+content is replaced, and its interface changes only where the parameters changed.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+
+import bpy
+
+from ..core import luts
+from ..core.backends.node_graph import Out, Plan, _input_name, partition
+
+CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
+SECTION_PREFIX = ".lamella_section_"
+X_STEP, Y_STEP = 180.0, 150.0
+
+
+# ---------------------------------------------------------------- images
+def table_image(file: str):
+    """The EXR table ``file`` of the package as a Blender image (loaded once per .blend), read as
+    raw data: no colour management, four independent channels, full float precision."""
+    path = str(luts.DATA_DIR / file)
+    name = f".lamella_{file}"
+    img = bpy.data.images.get(name)
+    if img is None or bpy.path.abspath(img.filepath) != path:
+        if img is not None:
+            bpy.data.images.remove(img)
+        img = bpy.data.images.load(path, check_existing=False)
+        img.name = name
+    img.colorspace_settings.is_data = True
+    img.alpha_mode = "CHANNEL_PACKED"
+    if hasattr(img, "use_half_precision"):
+        img.use_half_precision = False
+    return img
+
+
+# ---------------------------------------------------------------- helpers
+def _socket(sockets, identifier):
+    for s in sockets:
+        if s.identifier == identifier:
+            return s
+    raise KeyError(identifier)
+
+
+def _new_node(nt, bl_idname, props, location, label=""):
+    n = nt.nodes.new(bl_idname)
+    for k, v in props.items():
+        setattr(n, k, table_image(v) if k == "image" else v)
+    n.location = location
+    if label:
+        n.label = label
+    return n
+
+
+def _interface(tree, in_out, name, socket_type, default=None):
+    s = tree.interface.new_socket(name=name, in_out=in_out, socket_type=socket_type)
+    if default is not None and hasattr(s, "default_value"):
+        s.default_value = default
+    return s
+
+
+def _depths(plan: Plan, nodes: list[int]) -> dict[int, int]:
+    local = set(nodes)
+    depth = {}
+    for i in nodes:
+        ins = [v.node for v in plan.nodes[i].inputs.values() if isinstance(v, Out) and v.node in local]
+        depth[i] = 1 + max((depth[j] for j in ins), default=0)
+    return depth
+
+
+# ---------------------------------------------------------------- chunks
+def _chunk_group(plan: Plan, chunk):
+    """The nested group of one chunk, reused when a group of the same content exists."""
+    name = f"{CHUNK_PREFIX}{chunk.digest}"
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None:
+        return tree
+    tree = _new_tree(plan, name, chunk)
+    nt = tree
+    depth = _depths(plan, chunk.nodes)
+    rows: dict[int, int] = defaultdict(int)
+    gin = nt.nodes.new("NodeGroupInput")
+    gin.location = (-X_STEP, 0.0)
+    made = {}
+    for i in chunk.nodes:
+        n = plan.nodes[i]
+        d = depth[i]
+        node = _new_node(nt, n.bl_idname, n.props, (d * X_STEP, -rows[d] * Y_STEP))
+        rows[d] += 1
+        made[i] = node
+    gout = nt.nodes.new("NodeGroupOutput")
+    gout.location = ((max(depth.values(), default=0) + 1) * X_STEP, 0.0)
+    in_index = {v: k for k, v in enumerate(chunk.inputs)}
+    for i in chunk.nodes:
+        n, node = plan.nodes[i], made[i]
+        for ident, v in n.inputs.items():
+            sock = _socket(node.inputs, ident)
+            if isinstance(v, Out):
+                src = (made[v.node].outputs[_out_index(plan, v)] if v.node in made
+                       else gin.outputs[in_index[v]])
+                nt.links.new(src, sock)
+            elif ident == "Vector":
+                sock.default_value = (v, v, v)
+            else:
+                sock.default_value = v
+    for k, v in enumerate(chunk.outputs):
+        nt.links.new(made[v.node].outputs[_out_index(plan, v)], gout.inputs[k])
+    return tree
+
+
+def _new_tree(plan: Plan, name: str, chunk):
+    tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    for k, v in enumerate(chunk.inputs):
+        _interface(tree, "INPUT", _input_name(plan, v, k), "NodeSocketFloat")
+    for k in range(len(chunk.outputs)):
+        _interface(tree, "OUTPUT", f"out{k}", "NodeSocketFloat")
+    return tree
+
+
+def _section_group(plan: Plan, section):
+    """The nested group of a section: its chunks' groups, wired."""
+    name = f"{SECTION_PREFIX}{section.digest}"
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None:
+        return tree
+    tree = _new_tree(plan, name, section)
+    nt = tree
+    gin = nt.nodes.new("NodeGroupInput")
+    gin.location = (-X_STEP, 0.0)
+    in_index = {v: k for k, v in enumerate(section.inputs)}
+    made = {}
+    for k, c in enumerate(section.parts):
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.node_tree = _chunk_group(plan, c)
+        node.location = (k * 1.5 * X_STEP, -(k % 2) * Y_STEP)
+        for j, v in enumerate(c.inputs):
+            nt.links.new(made[v] if v in made else gin.outputs[in_index[v]], node.inputs[j])
+        for j, v in enumerate(c.outputs):
+            made[v] = node.outputs[j]
+    gout = nt.nodes.new("NodeGroupOutput")
+    gout.location = ((len(section.parts) + 1) * 1.5 * X_STEP, 0.0)
+    for k, v in enumerate(section.outputs):
+        nt.links.new(made[v], gout.inputs[k])
+    return tree
+
+
+def _out_index(plan: Plan, v: Out) -> int:
+    return plan.nodes[v.node].outputs.index(v.socket) if plan.nodes[v.node].bl_idname != "ShaderNodeMix" else 0
+
+
+# ---------------------------------------------------------------- the group
+class _Vec:
+    """Vector math in the group under construction."""
+
+    def __init__(self, nt):
+        self.nt = nt
+        self.x = 0.0
+        self.y = 400.0
+
+    def node(self, bl_idname, props=None, inputs=None, out=0, label=""):
+        n = _new_node(self.nt, bl_idname, props or {}, (self.x, self.y), label)
+        self.y -= Y_STEP
+        for ident, v in (inputs or {}).items():
+            sock = _socket(n.inputs, ident)
+            if isinstance(v, bpy.types.NodeSocket):
+                self.nt.links.new(v, sock)
+            else:
+                sock.default_value = v
+        return n.outputs[out] if isinstance(out, int) else _socket(n.outputs, out)
+
+    def vmath(self, op, a, b=None, out=0):
+        ins = {"Vector": a}
+        if b is not None:
+            ins["Vector_001"] = b
+        return self.node("ShaderNodeVectorMath", {"operation": op}, ins, out)
+
+    def math(self, op, a, b):
+        return self.node("ShaderNodeMath", {"operation": op}, {"Value": a, "Value_001": b})
+
+    def pick(self, use, a, b):
+        """``a`` where ``use`` is 1, else ``b`` (a vector Mix)."""
+        return self.node("ShaderNodeMix", {"data_type": "VECTOR", "clamp_factor": False},
+                         {"Factor_Float": use, "A_Vector": b, "B_Vector": a}, "Result_Vector")
+
+    def nonzero(self, v):
+        return self.math("GREATER_THAN", self.vmath("LENGTH", v, out="Value"), 1e-8)
+
+    def project(self, t, n):
+        """t without its component along n."""
+        d = self.vmath("DOT_PRODUCT", t, n, out="Value")
+        return self.vmath("SUBTRACT", t, self.scale(n, d))
+
+    def scale(self, v, s):
+        return self.node("ShaderNodeVectorMath", {"operation": "SCALE"}, {"Vector": v, "Scale": s})
+
+
+def _frame(g: _Vec, gin, tangent_input: bool):
+    """(N, T, B, V, wi) of the shading point: the Normal input where linked (else the shading
+    normal), the Tangent input made orthogonal to N, falling back like the OSL shader on the
+    tangent radial about world z and then on N x y, N x x; V the unit vector toward the viewer."""
+    geo = g.node("ShaderNodeNewGeometry", out="Normal")
+    geo_node = geo.node
+    n_in = gin.outputs["Normal"]
+    n = g.vmath("NORMALIZE", g.pick(g.nonzero(n_in), n_in, geo))
+    px = g.node("ShaderNodeSeparateXYZ", inputs={"Vector": geo_node.outputs["Position"]}, out="X")
+    neg_y = g.math("MULTIPLY", px.node.outputs["Y"], -1.0)
+    radial = g.node("ShaderNodeCombineXYZ", inputs={"X": neg_y, "Y": px, "Z": 0.0})
+    candidates = [g.project(gin.outputs["Tangent"], n)] if tangent_input else []
+    candidates += [g.project(radial, n), g.vmath("CROSS_PRODUCT", n, (0.0, 1.0, 0.0)),
+                   g.vmath("CROSS_PRODUCT", n, (1.0, 0.0, 0.0))]
+    t = candidates[-1]
+    for c in reversed(candidates[:-1]):
+        t = g.pick(g.nonzero(c), c, t)
+    t = g.vmath("NORMALIZE", t)
+    b = g.vmath("CROSS_PRODUCT", n, t)
+    v = g.vmath("NORMALIZE", geo_node.outputs["Incoming"])
+    wi = [g.vmath("DOT_PRODUCT", v, axis, out="Value") for axis in (t, b, n)]
+    return n, t, b, v, wi
+
+
+def _local_to_world(g: _Vec, comps, frame, src):
+    """The world vector of local components ``comps`` (plan values): x T + y B + z N."""
+    n, t, b, v, wi = frame
+    if all(isinstance(c, Out) and c.node < 0 for c in comps) and \
+            [src(c) for c in comps] == wi:
+        return v
+    terms = []
+    for c, axis in zip(comps, (t, b, n)):
+        if not isinstance(c, Out):
+            if c == 0.0:
+                continue
+            if c == 1.0:
+                terms.append(axis)
+                continue
+        terms.append(g.scale(axis, src(c)))
+    if len(terms) == 1 and terms[0] is n:
+        return n
+    acc = terms[0]
+    for term in terms[1:]:
+        acc = g.vmath("ADD", acc, term)
+    return g.vmath("NORMALIZE", acc)
+
+
+def group_name(stack_name: str) -> str:
+    return f"Lamella {stack_name or 'stack'}"
+
+
+def build_group(plan: Plan, name: str, tree=None):
+    """Build (or rebuild in place) the node group of ``plan``; returns it."""
+    if tree is None:
+        tree = bpy.data.node_groups.get(name) or bpy.data.node_groups.new(name, "ShaderNodeTree")
+    _sync_interface(tree, plan)
+    tree.nodes.clear()
+    tree.description = (f"Lamella layered material ({plan.model}, {plan.target} target): "
+                        + ("EEVEE stand-ins for anisotropy and refraction, see the README."
+                           if plan.target == "eevee" else "the closures of the OSL shader."))
+    nt = tree
+    g = _Vec(nt)
+    gin = nt.nodes.new("NodeGroupInput")
+    gin.location = (-3 * X_STEP, 0.0)
+    g.x = -X_STEP
+    frame = _frame(g, gin, tangent_input=True)
+    wi = frame[4]
+    leaf_src = {}
+    for k, leaf in enumerate(plan.leaves):
+        if leaf in ("wi_x", "wi_y", "wi_z"):
+            leaf_src[-1 - k] = wi[("wi_x", "wi_y", "wi_z").index(leaf)]
+        else:
+            leaf_src[-1 - k] = gin.outputs[leaf]
+
+    sections = partition(plan)
+    outs: dict[Out, object] = {}
+
+    def src(v):
+        if not isinstance(v, Out):
+            return v
+        return leaf_src[v.node] if v.node < 0 else outs[v]
+
+    frames = {}
+    col = defaultdict(int)
+    for c in sections:
+        sub = _section_group(plan, c)
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.node_tree = sub
+        node.label = plan.sections.get(c.scope, c.scope)
+        fr = frames.get(c.scope)
+        if fr is None:
+            fr = frames[c.scope] = nt.nodes.new("NodeFrame")
+            fr.label = plan.sections.get(c.scope, c.scope)
+        node.parent = fr
+        node.location = (len(frames) * 2 * X_STEP, -col[c.scope] * 2 * Y_STEP)
+        col[c.scope] += 1
+        for k, v in enumerate(c.inputs):
+            nt.links.new(src(v), node.inputs[k])
+        for k, v in enumerate(c.outputs):
+            outs[v] = node.outputs[k]
+
+    x = (len(frames) + 2) * 2 * X_STEP
+    g.x, g.y = x, 400.0
+    shader = None
+    lobes = nt.nodes.new("NodeFrame")
+    lobes.label = "lobes"
+    for b in plan.bsdfs:
+        color = g.node("ShaderNodeCombineColor", {"mode": "RGB"},
+                       {"Red": src(b.color[0]), "Green": src(b.color[1]), "Blue": src(b.color[2])})
+        bsdf = _new_node(nt, b.bl_idname, b.props, (x + X_STEP, g.y), b.label)
+        bsdf.parent = lobes
+        nt.links.new(color, bsdf.inputs["Color"])
+        for sock, v in b.floats.items():
+            s = bsdf.inputs[sock]
+            if isinstance(v, Out):
+                nt.links.new(src(v), s)
+            else:
+                s.default_value = v
+        for sock, comps in b.vectors.items():
+            if comps is not None:
+                nt.links.new(_local_to_world(g, comps, frame, src), bsdf.inputs[sock])
+        if shader is None:
+            shader = bsdf.outputs[0]
+        else:
+            add = _new_node(nt, "ShaderNodeAddShader", {}, (x + 2 * X_STEP, g.y))
+            nt.links.new(shader, add.inputs[0])
+            nt.links.new(bsdf.outputs[0], add.inputs[1])
+            shader = add.outputs[0]
+    gout = nt.nodes.new("NodeGroupOutput")
+    gout.location = (x + 3 * X_STEP, 0.0)
+    if shader is not None:
+        nt.links.new(shader, gout.inputs["BSDF"])
+    return tree
+
+
+def _sync_interface(tree, plan: Plan):
+    """Make the group's sockets the plan's parameters (sorted), Normal, Tangent and BSDF, keeping
+    the sockets that stay (and so the links into them from the material)."""
+    want = [(k, "NodeSocketFloat") for k in sorted(plan.params)] + [("Normal", "NodeSocketVector"),
+                                                                     ("Tangent", "NodeSocketVector")]
+    items = {(s.name, s.in_out): s for s in tree.interface.items_tree if s.item_type == "SOCKET"}
+    for (nm, io), s in list(items.items()):
+        if io == "INPUT" and nm not in dict(want):
+            tree.interface.remove(s)
+        elif io == "OUTPUT" and nm != "BSDF":
+            tree.interface.remove(s)
+    items = {(s.name, s.in_out): s for s in tree.interface.items_tree if s.item_type == "SOCKET"}
+    for nm, typ in want:
+        s = items.get((nm, "INPUT"))
+        if s is None:
+            s = _interface(tree, "INPUT", nm, typ)
+        if typ == "NodeSocketVector":
+            s.hide_value = True
+        elif nm in plan.params:
+            s.default_value = plan.params[nm]
+    if ("BSDF", "OUTPUT") not in items:
+        _interface(tree, "OUTPUT", "BSDF", "NodeSocketShader")
+    # order: parameters, Normal, Tangent
+    for pos, (nm, _) in enumerate(want):
+        s = next(s for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "INPUT" and s.name == nm)
+        tree.interface.move(s, pos)

@@ -1,0 +1,487 @@
+"""Node-graph backend: the traced model lowered to Blender shader nodes (DESIGN.md "One model,
+three backends"), for EEVEE and for Cycles without OSL (SVM, GPU).
+
+The model is traced once with ``Tracer`` exactly as for OSL; this module lowers the traced graph
+to a plan of Blender nodes, pure data without bpy (``lamella.blender.node_group`` instantiates it):
+
+- every arithmetic node becomes a Math node (``_MATH``), a comparison a Math node giving 0 or 1,
+  ``select`` a float Mix node, ``log`` a Math LOGARITHM to base e;
+- a table look-up becomes Image Texture reads (Linear interpolation, Extend) of the same EXR
+  tables the OSL shader reads, at the texel centres of the table's nodes (``_Lowering.lut``), the
+  read the OSL helpers ``lamella_tex`` / ``lamella_lut3`` make;
+- every lobe becomes the Blender BSDF node its kind names in the lobe-kind table
+  (``LobeKind.bsdf``), weighted by its energy times the kind's normaliser, as in the OSL shader.
+
+Math nodes keep Blender's semantics, which differ from the model's ops only where the model
+guards anyway: division by zero gives 0, the square root and logarithm of a non-positive number
+give 0. ``evaluate_plan`` evaluates a plan with those semantics in numpy (float32 by default), so
+tests check the lowering without Blender.
+
+Blender's node editor slows down quadratically with the nodes of one tree (creating a node costs
+time proportional to the tree's size), so ``partition`` cuts the plan into chunks of at most
+``CHUNK_NODES`` nodes, one per section of the model where possible; each chunk becomes a nested
+node group, named by a hash of its content so that an edit rebuilds only the chunks it changes.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import lobe_kinds, luts
+from ..models import resolve
+from ..stack import Stack
+from .trace import Expr, Tracer
+
+ENERGY_EPS = 1e-6
+CHUNK_NODES = 120  # nodes per nested group: creation time grows with the square of a tree's size
+SECTION_CHUNKS = 16  # chunks per section group: links too cost time in proportion to their tree
+TARGETS = ("cycles", "eevee")
+
+_MATH = {"add": "ADD", "sub": "SUBTRACT", "mul": "MULTIPLY", "div": "DIVIDE", "lt": "LESS_THAN",
+         "gt": "GREATER_THAN", "sqrt": "SQRT", "exp": "EXPONENT", "pow": "POWER", "abs": "ABSOLUTE",
+         "min": "MINIMUM", "max": "MAXIMUM", "cos": "COSINE", "sin": "SINE", "atan2": "ARCTAN2"}
+MATH_IN = ("Value", "Value_001", "Value_002")  # socket identifiers of a Math node's inputs
+
+
+@dataclass(frozen=True)
+class Out:
+    """An output socket of a plan node (``node`` is the node's index in ``Plan.nodes``; a negative
+    index -1 - k is the k-th leaf, a group input named ``Plan.leaves[k]``)."""
+
+    node: int
+    socket: str
+
+
+@dataclass
+class PlanNode:
+    """One Blender node: its type, its properties, and its inputs by socket identifier (an
+    ``Out`` or a literal float)."""
+
+    bl_idname: str
+    props: dict
+    inputs: dict
+    scope: str
+    outputs: tuple = ("Value",)
+
+    def key(self):
+        return (self.bl_idname, tuple(sorted(self.props.items())),
+                tuple(sorted((k, v if isinstance(v, Out) else float(v)) for k, v in self.inputs.items())))
+
+
+@dataclass
+class Bsdf:
+    """A lobe's BSDF node: type and properties from the lobe kind, ``Color`` as three scalar
+    outputs, other float sockets as values, vector sockets as local-frame (x = tangent, y =
+    bitangent, z = normal) triples; ``None`` leaves a vector socket unlinked."""
+
+    kind: str
+    bl_idname: str
+    props: dict
+    color: tuple
+    floats: dict
+    vectors: dict
+    label: str
+
+
+@dataclass
+class Plan:
+    """The node plan of one stack: math nodes in topological order, the leaves (the view direction
+    ``wi_x``/``wi_y``/``wi_z`` in the local frame and the stack's parameters, whose defaults are in
+    ``params``), the BSDF nodes, and the section title of every scope."""
+
+    nodes: list
+    leaves: list
+    params: dict
+    bsdfs: list
+    sections: dict
+    model: str
+    target: str
+    stack_json: str = ""
+    traced: tuple = field(default=(), repr=False)  # (tracer, expressions): what each output lowers
+
+    def leaf(self, name: str) -> Out:
+        return Out(-1 - self.leaves.index(name), "Value")
+
+    @property
+    def outputs(self) -> list:
+        """Every value the BSDF nodes read."""
+        outs = []
+        for b in self.bsdfs:
+            outs += [*b.color, *b.floats.values()]
+            for v in b.vectors.values():
+                if v is not None:
+                    outs += list(v)
+        return [o for o in outs if isinstance(o, Out)]
+
+
+class _Lowering:
+    """Traced graph -> plan nodes, sharing identical nodes."""
+
+    def __init__(self, tracer: Tracer):
+        self.t = tracer
+        self.nodes: list[PlanNode] = []
+        self.leaves: list[str] = []
+        self.env: dict[int, object] = {}
+        self._cache: dict = {}
+        self.scope = "setup"
+
+    # ------------------------------------------------------------ plan building
+    def add(self, bl_idname, props, inputs, outputs=("Value",)):
+        n = PlanNode(bl_idname, dict(props), dict(inputs), self.scope, tuple(outputs))
+        k = n.key()
+        hit = self._cache.get(k)
+        if hit is None:
+            self.nodes.append(n)
+            hit = self._cache[k] = len(self.nodes) - 1
+        return hit
+
+    def math(self, op, *args):
+        if all(not isinstance(a, Out) for a in args) and op in _FOLD_MATH:
+            return _FOLD_MATH[op](*(float(a) for a in args))
+        i = self.add("ShaderNodeMath", {"operation": op}, dict(zip(MATH_IN, args)))
+        return Out(i, "Value")
+
+    def leaf(self, name):
+        if name not in self.leaves:
+            self.leaves.append(name)
+        return Out(-1 - self.leaves.index(name), "Value")
+
+    def ref(self, a):
+        return self.env[id(a)] if isinstance(a, Expr) else float(a)
+
+    # ------------------------------------------------------------ lowering
+    def lower(self, exprs):
+        for e in self.t.live_nodes(exprs):
+            self.scope = e.scope
+            a = [x if isinstance(x, str) else self.ref(x) for x in e.args]
+            if e.op in ("param", "input"):
+                v = self.leaf(a[0])
+            elif e.op in _MATH:
+                v = self.math(_MATH[e.op], *a)
+            elif e.op == "le":  # a <= b is not (a > b)
+                v = self.math("SUBTRACT", 1.0, self.math("GREATER_THAN", a[0], a[1]))
+            elif e.op == "ge":
+                v = self.math("SUBTRACT", 1.0, self.math("LESS_THAN", a[0], a[1]))
+            elif e.op == "log":
+                v = self.math("LOGARITHM", a[0], math.e)
+            elif e.op == "select":
+                v = self.select(*a)
+            elif e.op == "lut":
+                v = self.lut(a[0], *a[1:])
+            else:
+                raise NotImplementedError(f"no node for traced op {e.op!r}")
+            self.env[id(e)] = v
+
+    def select(self, cond, a, b):
+        if not isinstance(cond, Out):
+            return a if cond else b
+        i = self.add("ShaderNodeMix", {"data_type": "FLOAT", "clamp_factor": False},
+                     {"Factor_Float": cond, "A_Float": b, "B_Float": a}, ("Result_Float",))
+        return Out(i, "Result_Float")
+
+    def _texel(self, c, n, offset=0.0, rows=None):
+        """The texture coordinate of table coordinate c (clamped to [0, 1]) on an axis of n nodes,
+        the texel centres of rows ``offset`` .. ``offset + n - 1`` of an image ``rows`` high."""
+        rows = rows or n
+        lo, hi = (offset + 0.5) / rows, (offset + n - 0.5) / rows
+        if not isinstance(c, Out):
+            return lo + min(max(c, 0.0), 1.0) * (hi - lo)
+        i = self.add("ShaderNodeMapRange", {"data_type": "FLOAT", "interpolation_type": "LINEAR", "clamp": True},
+                     {"Value": c, "From Min": 0.0, "From Max": 1.0, "To Min": lo, "To Max": hi}, ("Result",))
+        return Out(i, "Result")
+
+    def _read(self, file, s, t, channels=("X",)):
+        """Texture read at (s, t) in OSL's convention (t = 0 at the file's first row). Blender
+        stores images bottom row first, so its v is 1 - t."""
+        v = self.math("SUBTRACT", 1.0, t)
+        xyz = self.add("ShaderNodeCombineXYZ", {}, {"X": s, "Y": v, "Z": 0.0}, ("Vector",))
+        tex = self.add("ShaderNodeTexImage", {"image": file, "interpolation": "Linear", "extension": "EXTEND"},
+                       {"Vector": Out(xyz, "Vector")}, ("Color", "Alpha"))
+        sep = self.add("ShaderNodeSeparateXYZ", {}, {"Vector": Out(tex, "Color")}, ("X", "Y", "Z"))
+        return [Out(tex, "Alpha") if ch == "A" else Out(sep, ch) for ch in channels]
+
+    def lut(self, name, *c):
+        spec = luts.SPECS[name]
+        if len(spec.shape) == 2:
+            n0, n1 = spec.shape
+            return self._read(spec.file, self._texel(c[1], n1), self._texel(c[0], n0))[0]
+        n0, n1, n2 = spec.shape
+        s = self._texel(c[1], n1)
+        if not isinstance(c[2], Out):
+            x = min(max(c[2], 0.0), 1.0) * (n2 - 1)
+            k = min(math.floor(x), n2 - 2)
+            f = x - k
+            if f < 1e-9 and name in luts.PACKED:
+                group, channel = divmod(k, 4)
+                t = self._texel(c[0], n0, group * n0, n2 // 4 * n0)
+                return self._read(luts.PACKED[name], s, t, ("X", "Y", "Z", "A"))[channel]
+            if f < 1e-9:
+                return self._read(spec.file, s, self._texel(c[0], n0, k * n0, n0 * n2))[0]
+            a = self._read(spec.file, s, self._texel(c[0], n0, k * n0, n0 * n2))[0]
+            b = self._read(spec.file, s, self._texel(c[0], n0, (k + 1) * n0, n0 * n2))[0]
+            return self.math("ADD", a, self.math("MULTIPLY", self.math("SUBTRACT", b, a), f))
+        # a traced slice coordinate: the two slices around it, blended (lamella_lut3)
+        x = self.math("MULTIPLY", self.math("MINIMUM", self.math("MAXIMUM", c[2], 0.0), 1.0), float(n2 - 1))
+        k = self.math("MINIMUM", self.math("FLOOR", x), float(n2 - 2))
+        f = self.math("SUBTRACT", x, k)
+        t0 = self._texel(c[0], n0)  # rows of slice 0; slice k starts k * n0 rows further
+        row = self.math("DIVIDE", self.math("MULTIPLY", k, float(n0)), float(n0 * n2))
+        scale = n0 / float(n0 * n2)
+        t_a = self.math("ADD", self.math("MULTIPLY", t0, scale), row)
+        t_b = self.math("ADD", t_a, scale)
+        a = self._read(spec.file, s, t_a)[0]
+        b = self._read(spec.file, s, t_b)[0]
+        return self.math("ADD", a, self.math("MULTIPLY", self.math("SUBTRACT", b, a), f))
+
+
+_FOLD_MATH = {
+    "ADD": lambda a, b: a + b, "SUBTRACT": lambda a, b: a - b, "MULTIPLY": lambda a, b: a * b,
+    "DIVIDE": lambda a, b: a / b if b != 0.0 else 0.0, "MINIMUM": min, "MAXIMUM": max,
+    "FLOOR": math.floor,
+}
+
+
+def emit_plan(stack, model: str = "auto", target: str = "cycles") -> Plan:
+    """The node plan of ``stack`` under ``model`` for ``target`` ("cycles": the closures the OSL
+    shader makes, anisotropy included; "eevee": the same lobes with the stand-ins of
+    ``LobeKind.bsdf`` for what EEVEE cannot render)."""
+    if target not in TARGETS:
+        raise ValueError(f"unknown node target {target!r}: expected one of {', '.join(TARGETS)}")
+    stack = Stack.coerce(stack)
+    v = resolve(model, stack)
+    t = Tracer()
+    wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
+    lobes = v.run(t, stack, wi)
+    t.set_scope("closures")
+    specs = []
+    for lobe in lobes:
+        kind = lobe_kinds.kind(lobe.kind)
+        scale = kind.scale(t, lobe, wi)
+        color = tuple(c * scale for c in lobe.weight)
+        specs.append((lobe, color, kind.bsdf(t, kind.args(t, lobe, wi), wi, target)))
+    exprs = []
+    for _, color, b in specs:
+        exprs += [*color, *b.floats.values()]
+        exprs += [x for vec in b.vectors.values() if vec is not None for x in vec]
+    low = _Lowering(t)
+    low.lower(exprs)
+    bsdfs = []
+    for k, (lobe, color, b) in enumerate(specs):
+        label = f"lobe {k}: {lobe.kind} ({'coat ' + str(k) if k < len(stack.coats) else 'base'})"
+        bsdfs.append(Bsdf(lobe.kind, b.bl_idname, dict(b.props), tuple(low.ref(c) for c in color),
+                          {s: low.ref(x) for s, x in b.floats.items()},
+                          {s: (None if vec is None else tuple(low.ref(x) for x in vec)) for s, vec in b.vectors.items()},
+                          label))
+    sections = {"setup": "incident direction", "lobes": "lobes", "closures": "closure weights",
+                "base": f"base: {stack.base.type}"}
+    for i, c in enumerate(stack.coats):
+        sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if getattr(c, "has_medium", False) else "")
+    return Plan(low.nodes, low.leaves, {k: float(t.defaults[k]) for k in t.params}, bsdfs, sections,
+                v.name, target, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
+
+
+# ---------------------------------------------------------------- chunks (nested groups)
+@dataclass
+class Chunk:
+    """A run of plan nodes (indices ``nodes``) built as one nested group: its inputs are the
+    outside values it reads, its outputs the values read after it. A section is a chunk of
+    chunks (``parts``): a second level of nesting, so that no tree holds many links either."""
+
+    scope: str
+    nodes: list
+    inputs: list = field(default_factory=list)
+    outputs: list = field(default_factory=list)
+    parts: list = field(default_factory=list)
+    digest: str = ""
+
+
+def _io(chunks: list[Chunk], owner: dict, plan: Plan, reads) -> None:
+    """Fill the inputs (outside values read, in first-read order) and outputs (values read by
+    another chunk or by the BSDF nodes) of ``chunks``; ``reads(c)`` lists the values ``c`` reads."""
+    wanted: dict[int, list] = {id(c): [] for c in chunks}
+    for c in chunks:
+        c.inputs = list(dict.fromkeys(v for v in reads(c) if v.node < 0 or owner[v.node] is not c))
+        for v in c.inputs:
+            if v.node >= 0:
+                wanted[id(owner[v.node])].append(v)
+    for v in plan.outputs:
+        if v.node >= 0:
+            wanted[id(owner[v.node])].append(v)
+    for c in chunks:
+        c.outputs = list(dict.fromkeys(wanted[id(c)]))
+
+
+def partition(plan: Plan, size: int = CHUNK_NODES, per_section: int = SECTION_CHUNKS) -> list[Chunk]:
+    """Cut the plan's nodes, in order, into chunks of at most ``size`` nodes that never span two
+    scopes of the model, and group consecutive chunks of one scope into sections of at most
+    ``per_section`` chunks. Returns the sections, each with its chunks as ``parts``; every chunk
+    and section has its inputs, outputs and a digest of its content (names the nested group)."""
+    chunks: list[Chunk] = []
+    for i, n in enumerate(plan.nodes):
+        if not chunks or chunks[-1].scope != n.scope or len(chunks[-1].nodes) >= size:
+            chunks.append(Chunk(n.scope, []))
+        chunks[-1].nodes.append(i)
+    sections: list[Chunk] = []
+    for c in chunks:
+        if not sections or sections[-1].scope != c.scope or len(sections[-1].parts) >= per_section:
+            sections.append(Chunk(c.scope, []))
+        sections[-1].parts.append(c)
+        sections[-1].nodes += c.nodes
+
+    def node_reads(c):
+        return [v for i in c.nodes for v in plan.nodes[i].inputs.values() if isinstance(v, Out)]
+
+    _io(chunks, {i: c for c in chunks for i in c.nodes}, plan, node_reads)
+    _io(sections, {i: s for s in sections for i in s.nodes}, plan, lambda s: [v for c in s.parts for v in c.inputs])
+    for c in chunks:
+        c.digest = _chunk_digest(plan, c)
+    for s in sections:
+        s.digest = _section_digest(plan, s)
+    return sections
+
+
+def _hash(obj) -> str:
+    return hashlib.sha1(json.dumps(obj).encode()).hexdigest()[:12]
+
+
+def _input_name(plan: Plan, v: Out, k: int) -> str:
+    """The socket name of a nested group's k-th input: the leaf's own name, else ``in<k>``."""
+    return plan.leaves[-1 - v.node] if v.node < 0 else f"in{k}"
+
+
+def _chunk_digest(plan: Plan, c: Chunk) -> str:
+    local = {i: k for k, i in enumerate(c.nodes)}
+    inputs = {v: k for k, v in enumerate(c.inputs)}
+
+    def ref(v):
+        if not isinstance(v, Out):
+            return repr(float(v))
+        if v.node >= 0 and v.node in local:
+            return f"n{local[v.node]}.{v.socket}"
+        return f"i{inputs[v]}"
+
+    body = [[plan.nodes[i].bl_idname, sorted(plan.nodes[i].props.items()),
+             sorted((s, ref(v)) for s, v in plan.nodes[i].inputs.items())] for i in c.nodes]
+    names = [_input_name(plan, v, k) for k, v in enumerate(c.inputs)]
+    return _hash([body, [ref(v) for v in c.outputs], names])
+
+
+def _section_digest(plan: Plan, s: Chunk) -> str:
+    inputs = {v: k for k, v in enumerate(s.inputs)}
+    made = {v: (k, j) for k, c in enumerate(s.parts) for j, v in enumerate(c.outputs)}
+
+    def ref(v):
+        return list(made[v]) if v in made else f"i{inputs[v]}"
+
+    wiring = [[c.digest, [ref(v) for v in c.inputs]] for c in s.parts]
+    names = [_input_name(plan, v, k) for k, v in enumerate(s.inputs)]
+    return _hash([wiring, [ref(v) for v in s.outputs], names])
+
+
+# ---------------------------------------------------------------- Blender semantics in numpy
+def _safe_div(a, b):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(b != 0, a / np.where(b != 0, b, 1), 0).astype(a.dtype)
+
+
+def _safe_sqrt(a):
+    return np.where(a > 0, np.sqrt(np.maximum(a, 0)), 0).astype(a.dtype)
+
+
+def _safe_log(a, b):
+    ok = (a > 0) & (b > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(ok, np.log(np.where(ok, a, 1)) / np.log(np.where(ok, b, 2)), 0).astype(a.dtype)
+
+
+def _safe_pow(a, b):
+    """Blender's safe power: a negative base with a non-integer exponent gives 0."""
+    bad = (a < 0) & (b != np.floor(b))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return np.where(bad, 0, np.power(np.where(bad, 1, a), b)).astype(a.dtype)
+
+
+_NP_MATH = {
+    "ADD": np.add, "SUBTRACT": np.subtract, "MULTIPLY": np.multiply, "DIVIDE": _safe_div,
+    "LESS_THAN": lambda a, b: (a < b).astype(a.dtype), "GREATER_THAN": lambda a, b: (a > b).astype(a.dtype),
+    "SQRT": _safe_sqrt, "EXPONENT": np.exp, "POWER": _safe_pow, "ABSOLUTE": np.abs, "MINIMUM": np.minimum,
+    "MAXIMUM": np.maximum, "COSINE": np.cos, "SINE": np.sin, "ARCTAN2": np.arctan2, "LOGARITHM": _safe_log,
+    "FLOOR": np.floor,
+}
+
+
+def _image(file: str, dtype) -> np.ndarray:
+    """The image as Blender holds it: rows bottom first, RGBA (a one-channel table in R, G, B)."""
+    for name, spec in luts.SPECS.items():
+        if spec.file == file:
+            atlas = luts._to_atlas(luts.table(name))
+            rgba = np.stack([atlas, atlas, atlas, np.ones_like(atlas)], axis=-1)
+            return rgba[::-1].astype(dtype)
+    for name, packed in luts.PACKED.items():
+        if packed == file:
+            n0, n1, n2 = luts.SPECS[name].shape
+            a = luts.table(name)
+            rgba = np.stack([luts._to_atlas(a[:, :, c::4]) for c in range(4)], axis=-1)
+            return rgba[::-1].astype(dtype)
+    raise KeyError(file)
+
+
+def _bilinear(img: np.ndarray, u, v):
+    """Linear, Extend image texture look-up (texel centres at (i + 0.5) / size)."""
+    h, w = img.shape[:2]
+    x = np.asarray(u) * w - 0.5
+    y = np.asarray(v) * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    xi0, yi0 = np.clip(x0, 0, w - 1).astype(int), np.clip(y0, 0, h - 1).astype(int)
+    xi1, yi1 = np.clip(x0 + 1, 0, w - 1).astype(int), np.clip(y0 + 1, 0, h - 1).astype(int)
+    top = img[yi0, xi0] * (1 - fx) + img[yi0, xi1] * fx
+    bottom = img[yi1, xi0] * (1 - fx) + img[yi1, xi1] * fx
+    return (top * (1 - fy) + bottom * fy).astype(img.dtype)
+
+
+def evaluate_plan(plan: Plan, values: dict, dtype=np.float32) -> dict:
+    """Every plan output for leaf ``values`` (by name, broadcastable arrays), with Blender's node
+    semantics in ``dtype``: returns {Out: array}."""
+    dtype = np.dtype(dtype)
+    leaves = [np.asarray(values[name], dtype=dtype) for name in plan.leaves]
+    env: dict[int, dict] = {}
+    images: dict[str, np.ndarray] = {}
+
+    def get(v):
+        if not isinstance(v, Out):
+            return dtype.type(v)
+        return leaves[-1 - v.node] if v.node < 0 else env[v.node][v.socket]
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i, n in enumerate(plan.nodes):
+            x = {k: get(v) for k, v in n.inputs.items()}
+            if n.bl_idname == "ShaderNodeMath":
+                args = [np.asarray(x[k], dtype=dtype) for k in MATH_IN if k in x]
+                env[i] = {"Value": np.asarray(_NP_MATH[n.props["operation"]](*args), dtype=dtype)}
+            elif n.bl_idname == "ShaderNodeMix":
+                f = x["Factor_Float"]
+                env[i] = {"Result_Float": np.asarray(x["A_Float"] * (1 - f) + x["B_Float"] * f, dtype=dtype)}
+            elif n.bl_idname == "ShaderNodeMapRange":
+                lo, hi = x["To Min"], x["To Max"]
+                r = (x["Value"] - x["From Min"]) / (x["From Max"] - x["From Min"]) * (hi - lo) + lo
+                env[i] = {"Result": np.clip(r, lo, hi).astype(dtype)}
+            elif n.bl_idname == "ShaderNodeCombineXYZ":
+                env[i] = {"Vector": np.broadcast_arrays(x["X"], x["Y"], x["Z"])}
+            elif n.bl_idname == "ShaderNodeTexImage":
+                f = n.props["image"]
+                if f not in images:
+                    images[f] = _image(f, dtype)
+                u, v, _ = x["Vector"]
+                rgba = _bilinear(images[f], u, v)
+                env[i] = {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
+            elif n.bl_idname == "ShaderNodeSeparateXYZ":
+                c = x["Vector"]
+                env[i] = {"X": c[..., 0], "Y": c[..., 1], "Z": c[..., 2]}
+            else:
+                raise NotImplementedError(n.bl_idname)
+    return {o: get(o) for o in plan.outputs} | {"_get": get}

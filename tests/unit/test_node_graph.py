@@ -1,0 +1,139 @@
+"""The node-graph backend without Blender: the plan of nodes, evaluated with Blender's node
+semantics (safe division, square root and logarithm, Mix for select, Linear image reads of the
+EXR tables at texel centres) in float32, equals the traced model run by numpy in float32.
+
+Tolerances: the weights of the lobes agree to 1e-4 of the largest weight (measured: below 3e-5;
+what differs is the bilinear image read against numpy's multilinear look-up in float32), and
+every closure argument of a lobe that carries energy (weight > 1e-4) to 1e-4 relative. Where a
+lobe has no energy its arguments may differ (a ratio of two vanishing quantities), which no
+render can show."""
+import math
+
+import numpy as np
+import pytest
+
+from lamella.core import Stack, suite
+from lamella.core.backends import node_graph
+from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.lobe_kinds import blender_anisotropy
+
+CASES = suite.names()
+
+
+def _directions(grazing=True):
+    theta = np.radians(np.r_[np.linspace(0.0, 88.0, 23), [89.9, 90.0]] if grazing else np.linspace(0.0, 85.0, 18))
+    phi = np.radians(np.linspace(0.0, 330.0, 12))
+    t, p = np.meshgrid(theta, phi)
+    return {"wi_x": np.sin(t) * np.cos(p), "wi_y": np.sin(t) * np.sin(p), "wi_z": np.cos(t)}
+
+
+def _compare(plan, values):
+    tracer, exprs, refs = plan.traced
+    want = tracer.evaluate(exprs, NumpyOps(np.float32), values)
+    got = evaluate_plan(plan, values, np.float32)["_get"]
+    shape = values["wi_z"].shape
+    pairs = [(np.broadcast_to(np.asarray(w, np.float64), shape), np.broadcast_to(np.asarray(got(r), np.float64), shape))
+             for w, r in zip(want, refs)]
+    return pairs
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_plan_equals_the_traced_model(case):
+    plan = emit_plan(suite.load(case))
+    values = dict(_directions(grazing=False), **plan.params)
+    pairs = iter(_compare(plan, values))
+    lobes = []
+    for b in plan.bsdfs:
+        color = [next(pairs) for _ in range(3)]
+        args = [next(pairs) for _ in b.floats] + [next(pairs) for v in b.vectors.values() if v is not None for _ in v]
+        lobes.append((b, color, args))
+    top = max(np.abs(w).max() for _, color, _ in lobes for w, _ in color)
+    for b, color, args in lobes:
+        for w, g in color:
+            assert np.abs(g - w).max() <= 1e-4 * top, f"{b.label}: weight"
+        live = np.maximum.reduce([np.abs(w) for w, _ in color]) > 1e-4
+        for w, g in args:
+            err = np.abs(g - w) / np.maximum(np.abs(w), 1e-3)
+            assert err[live].max(initial=0.0) < 1e-4, f"{b.label}: argument"
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_plan_is_finite_at_every_angle_in_float32(case):
+    plan = emit_plan(suite.load(case))
+    values = dict(_directions(grazing=True), **plan.params)
+    out = evaluate_plan(plan, values, np.float32)
+    for o in plan.outputs:
+        assert np.isfinite(out[o]).all()
+    for b in plan.bsdfs:
+        for c in b.color:
+            assert (np.asarray(out["_get"](c)) >= 0).all(), f"{b.label}: negative weight"
+
+
+def test_blender_anisotropy_gives_back_the_lobe_axes():
+    """Cycles' Glossy BSDF: alpha = r^2, a >= 0: (alpha (1 - a), alpha / (1 - a)); a < 0:
+    (alpha / (1 + a), alpha (1 + a))."""
+    ops = NumpyOps(np.float64)
+    ax = np.array([0.01, 0.3, 0.2, 0.5, 0.04, 0.0])
+    ay = np.array([0.1, 0.03, 0.2, 0.5, 0.9, 0.0])
+    r, a = blender_anisotropy(ops, ax, ay)
+    alpha = r * r
+    bx = np.where(a < 0, alpha / (1 + a), alpha * (1 - a))
+    by = np.where(a < 0, alpha * (1 + a), alpha / (1 - a))
+    assert np.allclose(bx, ax, rtol=1e-6, atol=1e-9) and np.allclose(by, ay, rtol=1e-6, atol=1e-9)
+    assert a[2] == 0.0 and a[3] == 0.0 and a[5] == 0.0, "isotropic lobes have no anisotropy"
+
+
+def test_partition_covers_every_node_once_in_bounded_groups():
+    plan = emit_plan(suite.example("four_coats"))
+    sections = partition(plan)
+    chunks = [c for s in sections for c in s.parts]
+    seen = [i for c in chunks for i in c.nodes]
+    assert sorted(seen) == list(range(len(plan.nodes)))
+    assert max(len(c.nodes) for c in chunks) <= CHUNK_NODES
+    assert max(len(s.parts) for s in sections) <= node_graph.SECTION_CHUNKS
+    assert all(len({plan.nodes[i].scope for i in c.nodes}) == 1 for c in chunks)
+    produced = {i for c in chunks for i in c.nodes}
+    for c in chunks:  # a chunk reads only leaves, its own nodes and earlier chunks' outputs
+        for v in c.inputs:
+            assert v.node < 0 or (v.node in produced and v.node < min(c.nodes))
+
+
+def test_a_value_edit_keeps_every_nested_group_and_a_structure_edit_keeps_the_rest():
+    """Parameters are group inputs, so new values make the same nested groups; a changed coat
+    rebuilds its own sections and leaves the sections before it alone."""
+    d = suite.example("four_coats").to_dict()
+    base = {s.digest for s in partition(emit_plan(Stack.from_dict(d)))}
+    d2 = suite.example("four_coats").to_dict()
+    d2["layers"][0]["ior"] = 1.7
+    d2["layers"][1]["ior"] = 1.33
+    assert {s.digest for s in partition(emit_plan(Stack.from_dict(d2)))} == base
+    d3 = suite.example("four_coats").to_dict()
+    d3["layers"][-1]["sigma_a"] = [0.5, 0.2, 0.1] if "sigma_a" not in d3["layers"][-1] else [0.0, 0.0, 0.0]
+    changed = {s.digest for s in partition(emit_plan(Stack.from_dict(d3)))}
+    assert changed != base and len(changed & base) > 0
+
+
+def test_targets_differ_only_in_the_bsdf_stand_ins():
+    stack = suite.load("rotated_30")
+    cyc, eev = emit_plan(stack, target="cycles"), emit_plan(stack, target="eevee")
+    assert [b.bl_idname for b in cyc.bsdfs] == [b.bl_idname for b in eev.bsdfs]
+    assert cyc.bsdfs[-1].vectors["Tangent"] is not None and eev.bsdfs[-1].vectors["Tangent"] is None
+    with pytest.raises(ValueError, match="node target"):
+        emit_plan(stack, target="mitsuba")
+
+
+def test_table_reads_hit_texel_centres():
+    """A table look-up at a node of the table reads that texel exactly (the lowering's texture
+    coordinates and the flip of Blender's bottom-up rows)."""
+    from lamella.core import luts
+
+    ops_plan = node_graph._Lowering.__new__(node_graph._Lowering)
+    n0, n1 = luts.SPECS["ggx_albedo"].shape
+    table = luts.table("ggx_albedo")
+    img = node_graph._image("ggx_albedo.exr", np.float32)
+    for i, j in [(0, 0), (3, 7), (n0 - 1, n1 - 1), (10, 0)]:
+        s = node_graph._Lowering._texel(ops_plan, j / (n1 - 1), n1)
+        t = node_graph._Lowering._texel(ops_plan, i / (n0 - 1), n0)
+        got = node_graph._bilinear(img, np.array([s]), np.array([1.0 - t]))[0, 0]
+        assert math.isclose(got, table[i, j], rel_tol=1e-6, abs_tol=1e-7)
