@@ -114,15 +114,6 @@ def test_a_value_edit_keeps_every_nested_group_and_a_structure_edit_keeps_the_re
     assert changed != base and len(changed & base) > 0
 
 
-def test_targets_differ_only_in_the_bsdf_stand_ins():
-    stack = suite.load("rotated_30")
-    cyc, eev = emit_plan(stack, target="cycles"), emit_plan(stack, target="eevee")
-    assert [b.bl_idname for b in cyc.bsdfs] == [b.bl_idname for b in eev.bsdfs]
-    assert cyc.bsdfs[-1].vectors["Tangent"] is not None and eev.bsdfs[-1].vectors["Tangent"] is None
-    with pytest.raises(ValueError, match="node target"):
-        emit_plan(stack, target="mitsuba")
-
-
 def test_table_reads_hit_texel_centres():
     """A table look-up at a node of the table reads that texel exactly (the lowering's texture
     coordinates and the flip of Blender's bottom-up rows)."""

@@ -265,9 +265,8 @@ def build_group(plan: Plan, name: str, tree=None):
         tree = bpy.data.node_groups.get(name) or bpy.data.node_groups.new(name, "ShaderNodeTree")
     _sync_interface(tree, plan)
     tree.nodes.clear()
-    tree.description = (f"Lamella layered material ({plan.model}, {plan.target} target): "
-                        + ("EEVEE stand-ins for anisotropy and refraction, see the README."
-                           if plan.target == "eevee" else "the closures of the OSL shader."))
+    tree.description = (f"Lamella layered material ({plan.model}): in Cycles the closures of the OSL shader; "
+                        "EEVEE renders anisotropic lobes isotropic (alpha = sqrt(ax ay)), see the README")
     nt = tree
     g = _Vec(nt)
     gin = nt.nodes.new("NodeGroupInput")

@@ -120,8 +120,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
         from ..core.backends.node_graph import emit_plan
         from .node_group import build_group, group_name
 
-        target = "eevee" if engine == "eevee" else "cycles"
-        group = build_group(emit_plan(stack, model, target), group_name(stack.name))
+        group = build_group(emit_plan(stack, model), group_name(stack.name))
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = group
         tangent = nt.nodes.new("ShaderNodeTangent")

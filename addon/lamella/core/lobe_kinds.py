@@ -44,9 +44,9 @@ class LobeKind:
     ``scale(ops, lobe, wi)``: the normaliser; ``side``: ``"reflected"`` or ``"transmitted"``;
     ``args(ops, lobe, wi)``: the closure's arguments as named backend values (roughness, axes,
     normal), which a backend prints or wires; ``osl(a)``: the Cycles OSL closure call, given the
-    printed expressions ``a`` of those arguments; ``bsdf(ops, a, wi, target)``: the Blender BSDF
-    node (``BsdfNode``) for target "cycles" (the same closure as ``osl``) or "eevee" (its stand-in
-    where EEVEE cannot render it); ``description``: one line for docs and tables;
+    printed expressions ``a`` of those arguments; ``bsdf(ops, a, wi)``: the Blender BSDF node
+    (``BsdfNode``) that makes the same closure in Cycles without OSL, and in EEVEE what EEVEE
+    makes of that node; ``description``: one line for docs and tables;
     ``rough``: the lobe is a microfacet lobe, a delta at zero roughness."""
 
     name: str
@@ -214,39 +214,32 @@ def blender_anisotropy(ops, ax, ay):
     return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, 1.0 - q, q - 1.0)
 
 
-def _bsdf_ggx_reflection(ops, a, wi, target):
-    """Glossy BSDF (GGX) on the lobe's axes. EEVEE ignores anisotropy: its lobe takes the
-    isotropic roughness ``eevee_isotropic_alpha``."""
-    if target == "eevee":
-        r = ops.sqrt(eevee_isotropic_alpha(ops, a["ax"], a["ay"]))
-        return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"}, {"Roughness": r, "Anisotropy": 0.0},
-                        {"Normal": (0.0, 0.0, 1.0), "Tangent": None})
+def _bsdf_ggx_reflection(ops, a, wi):
+    """Glossy BSDF (GGX) on the lobe's axes. EEVEE ignores the anisotropy and renders the
+    Roughness socket alone, alpha = sqrt(ax ay): of the isotropic stand-ins measured (arithmetic,
+    geometric and RMS mean, the larger axis, the roughness projected on the view's azimuth) the
+    geometric mean is the closest to the anisotropic lobes (``bench/eevee_anisotropy.md``), so one
+    node group serves Cycles and EEVEE."""
     r, aniso = blender_anisotropy(ops, a["ax"], a["ay"])
     return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"}, {"Roughness": r, "Anisotropy": aniso},
                     {"Normal": (0.0, 0.0, 1.0), "Tangent": (a["cos"], a["sin"], 0.0)})
 
 
-def eevee_isotropic_alpha(ops, ax, ay):
-    """The isotropic roughness standing in for an anisotropic lobe where the renderer has no
-    anisotropy (EEVEE): the RMS roughness, the width whose GD normalises the lobe."""
-    return rms_alpha(ops, ax, ay)
-
-
-def _bsdf_backscatter(ops, a, wi, target):
+def _bsdf_backscatter(ops, a, wi):
     """Glossy BSDF (GGX, isotropic) about the view direction."""
     return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"},
                     {"Roughness": ops.sqrt(a["alpha"]), "Anisotropy": 0.0},
                     {"Normal": tuple(wi), "Tangent": None})
 
 
-def _bsdf_transmission(ops, a, wi, target):
+def _bsdf_transmission(ops, a, wi):
     """Refraction BSDF (GGX) at index REFRACT_ETA about the closure normal."""
     return BsdfNode("ShaderNodeBsdfRefraction", {"distribution": "GGX"},
                     {"Roughness": ops.sqrt(a["alpha"]), "IOR": REFRACT_ETA},
                     {"Normal": (a["nx"], a["ny"], a["nz"])})
 
 
-def _bsdf_diffuse(ops, a, wi, target):
+def _bsdf_diffuse(ops, a, wi):
     return BsdfNode("ShaderNodeBsdfDiffuse", {}, {"Roughness": 0.0}, {"Normal": (0.0, 0.0, 1.0)})
 
 

@@ -39,7 +39,6 @@ from .trace import Expr, Tracer
 ENERGY_EPS = 1e-6
 CHUNK_NODES = 120  # nodes per nested group: creation time grows with the square of a tree's size
 SECTION_CHUNKS = 16  # chunks per section group: links too cost time in proportion to their tree
-TARGETS = ("cycles", "eevee")
 
 _MATH = {"add": "ADD", "sub": "SUBTRACT", "mul": "MULTIPLY", "div": "DIVIDE", "lt": "LESS_THAN",
          "gt": "GREATER_THAN", "sqrt": "SQRT", "exp": "EXPONENT", "pow": "POWER", "abs": "ABSOLUTE",
@@ -99,7 +98,6 @@ class Plan:
     bsdfs: list
     sections: dict
     model: str
-    target: str
     stack_json: str = ""
     traced: tuple = field(default=(), repr=False)  # (tracer, expressions): what each output lowers
 
@@ -245,12 +243,9 @@ _FOLD_MATH = {
 }
 
 
-def emit_plan(stack, model: str = "auto", target: str = "cycles") -> Plan:
-    """The node plan of ``stack`` under ``model`` for ``target`` ("cycles": the closures the OSL
-    shader makes, anisotropy included; "eevee": the same lobes with the stand-ins of
-    ``LobeKind.bsdf`` for what EEVEE cannot render)."""
-    if target not in TARGETS:
-        raise ValueError(f"unknown node target {target!r}: expected one of {', '.join(TARGETS)}")
+def emit_plan(stack, model: str = "auto") -> Plan:
+    """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
+    anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``)."""
     stack = Stack.coerce(stack)
     v = resolve(model, stack)
     t = Tracer()
@@ -262,7 +257,7 @@ def emit_plan(stack, model: str = "auto", target: str = "cycles") -> Plan:
         kind = lobe_kinds.kind(lobe.kind)
         scale = kind.scale(t, lobe, wi)
         color = tuple(c * scale for c in lobe.weight)
-        specs.append((lobe, color, kind.bsdf(t, kind.args(t, lobe, wi), wi, target)))
+        specs.append((lobe, color, kind.bsdf(t, kind.args(t, lobe, wi), wi)))
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]
@@ -281,7 +276,7 @@ def emit_plan(stack, model: str = "auto", target: str = "cycles") -> Plan:
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if getattr(c, "has_medium", False) else "")
     return Plan(low.nodes, low.leaves, {k: float(t.defaults[k]) for k in t.params}, bsdfs, sections,
-                v.name, target, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
+                v.name, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
 
 
 # ---------------------------------------------------------------- chunks (nested groups)
