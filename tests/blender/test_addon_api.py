@@ -35,8 +35,12 @@ def test_apply_then_read_gives_the_stack_back(addon, case):
     s = mat.lamella
     assert s.enabled and s.status == "OK", s.status_message
     script, output, _ = material_nodes.lamella_nodes(mat)
-    assert output.target == "CYCLES" and output.inputs["Surface"].links[0].from_node == script
+    group, eevee = (mat.node_tree.nodes[n] for n in (material_nodes.GROUP, material_nodes.EEVEE_OUTPUT))
+    shown = script if material_nodes.osl_usable(addon.context.scene) else group
+    assert output.target == "CYCLES" and output.inputs["Surface"].links[0].from_node == shown
+    assert eevee.target == "EEVEE" and eevee.inputs["Surface"].links[0].from_node == group
     assert "BSDF" in script.outputs and len(script.inputs) > 3
+    assert {s.name for s in script.inputs} - {"lut_dir"} <= {s.name for s in group.inputs}, "same parameter sockets"
     assert json.loads(s.compiled_json)["base"]["type"] == stack.base.type
 
 

@@ -1,11 +1,13 @@
 """The nodes Lamella owns in a material, and nothing else.
 
 A Lamella material has a Script node running the generated OSL shader (INTERNAL text, so the
-shader travels with the .blend) feeding a Material Output whose target is Cycles, and a Tangent
-node (radial about the object's z, switchable to a UV map by the user) feeding the shader's
-Tangent input. Blender renders with the output whose target matches the engine in preference to
-an "All" output, so the user's own nodes, and their output, stay in the material untouched; the
-EEVEE target is left to an EEVEE output.
+shader travels with the .blend), the node group of the same model (``node_group``) and a Tangent
+node (radial about the object's z, switchable to a UV map by the user) feeding both. A Material
+Output whose target is Cycles shows the Script node where Cycles can run OSL (Open Shading
+Language on, CPU device or OptiX) and the node group otherwise (``wire_cycles``); a Material
+Output whose target is EEVEE shows the node group. Blender renders with the output whose target
+matches the engine in preference to an "All" output, so the user's own nodes, and their output,
+stay in the material untouched.
 
 The nodes are found by name; a recompile reuses them, so textures linked into the Script node's
 parameter sockets stay linked (a socket is kept while its parameter keeps its name and type).
@@ -17,12 +19,16 @@ import hashlib
 SCRIPT = "Lamella Shader"
 OUTPUT = "Lamella Output"
 TANGENT = "Lamella Tangent"
+GROUP = "Lamella Nodes"
+EEVEE_OUTPUT = "Lamella EEVEE Output"
+OWNED = (SCRIPT, OUTPUT, TANGENT, GROUP, EEVEE_OUTPUT)
+STRUCTURE_KEY = "lamella_structure"  # custom property of a group: the structure it was built for
 
 
 def _place(nt):
     """A spot right of the material's existing nodes."""
-    xs = [n.location.x + n.width for n in nt.nodes if n.name not in (SCRIPT, OUTPUT, TANGENT)]
-    ys = [n.location.y for n in nt.nodes if n.name not in (SCRIPT, OUTPUT, TANGENT)]
+    xs = [n.location.x + n.width for n in nt.nodes if n.name not in OWNED]
+    ys = [n.location.y for n in nt.nodes if n.name not in OWNED]
     return (max(xs) + 200.0 if xs else 0.0), (min(ys) - 400.0 if ys else 0.0)
 
 
@@ -86,7 +92,7 @@ def install_shader(mat, source: str, oso_path, lut_dir: str) -> None:
     if "lut_dir" in script.inputs:
         script.inputs["lut_dir"].default_value = lut_dir
     nt = mat.node_tree
-    if not script.outputs["BSDF"].is_linked or script.outputs["BSDF"].links[0].to_node != output:
+    if not output.inputs["Surface"].is_linked:
         nt.links.new(script.outputs["BSDF"], output.inputs["Surface"])
     if "Tangent" in script.inputs and not script.inputs["Tangent"].is_linked:
         nt.links.new(tangent.outputs["Tangent"], script.inputs["Tangent"])
@@ -102,6 +108,98 @@ def refresh_lut_dir(mat, lut_dir: str) -> bool:
     if sock.default_value == lut_dir:
         return False
     sock.default_value = lut_dir
+    return True
+
+
+def osl_usable(scene) -> bool:
+    """Whether Cycles in ``scene`` can run the OSL shader: Open Shading Language on, and the CPU
+    or an OptiX device (no other GPU backend runs OSL)."""
+    cy = scene.cycles
+    if not cy.shading_system:
+        return False
+    if cy.device == "CPU":
+        return True
+    import bpy
+
+    prefs = bpy.context.preferences.addons.get("cycles")
+    return prefs is not None and getattr(prefs.preferences, "compute_device_type", "") == "OPTIX"
+
+
+def ensure_group_nodes(mat):
+    """(group node, EEVEE output), created where missing; the group node's tree is set later."""
+    nt = mat.node_tree
+    node, out = nt.nodes.get(GROUP), nt.nodes.get(EEVEE_OUTPUT)
+    script = nt.nodes.get(SCRIPT)
+    x, y = (script.location.x, script.location.y - 300.0) if script is not None else _place(nt)
+    if node is None:
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.name = GROUP
+        node.label = "Lamella (nodes)"
+        node.location = (x, y)
+        node.width = 240.0
+    if out is None:
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        out.name = out.label = EEVEE_OUTPUT
+        out.target = "EEVEE"
+        out.location = (x + 320.0, y)
+    return node, out
+
+
+def install_group(mat, stack, model: str, source: str) -> bool:
+    """Give ``mat`` the node group of ``stack``: rebuilt only when the structure changed (the
+    structure key of the OSL source, which strips parameter values), and then only the nested
+    groups whose content changed; the parameter values go to the group node's sockets, so links
+    into them stay. A group another material shares is copied first (copies stay independent).
+    Returns whether the group was rebuilt."""
+    import bpy
+
+    from ..core.backends.node_graph import emit_plan
+    from . import node_group
+    from .osl_compile import source_hash, source_params
+
+    node, out = ensure_group_nodes(mat)
+    nt = mat.node_tree
+    key = source_hash(source)
+    tree = node.node_tree
+    if tree is not None and tree.users > 1:  # shared with a copied material: make it this one's own
+        tree = tree.copy()
+        node.node_tree = tree
+    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
+    if rebuilt:
+        if tree is None:
+            tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
+        node_group.build_group(emit_plan(stack, model), tree.name, tree)
+        tree[STRUCTURE_KEY] = key
+        node.node_tree = tree
+    for name, value in source_params(source).items():
+        sock = node.inputs.get(name)
+        if sock is not None:
+            sock.default_value = value
+    tangent = nt.nodes.get(TANGENT)
+    if tangent is not None and "Tangent" in node.inputs and not node.inputs["Tangent"].is_linked:
+        nt.links.new(tangent.outputs["Tangent"], node.inputs["Tangent"])
+    if not node.outputs["BSDF"].is_linked or all(l.to_node != out for l in node.outputs["BSDF"].links):
+        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    return rebuilt
+
+
+def wire_cycles(mat, scene) -> bool:
+    """Show in the Cycles output the Script node where ``scene`` runs OSL, else the node group.
+    Returns whether a link changed."""
+    nt = mat.node_tree
+    if nt is None:
+        return False
+    out, script, group = nt.nodes.get(OUTPUT), nt.nodes.get(SCRIPT), nt.nodes.get(GROUP)
+    if out is None:
+        return False
+    src = script if osl_usable(scene) or group is None or group.node_tree is None else group
+    if src is None:
+        return False
+    sock = src.outputs[0]
+    surface = out.inputs["Surface"]
+    if surface.is_linked and surface.links[0].from_socket == sock:
+        return False
+    nt.links.new(sock, surface)
     return True
 
 

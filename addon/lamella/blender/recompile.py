@@ -112,6 +112,9 @@ def install(mat, stack, built, t0: float | None = None) -> None:
 
     source, oso, picked = built
     material_nodes.install_shader(mat, source, oso, str(luts.DATA_DIR))
+    material_nodes.install_group(mat, stack, mat.lamella.model, source)
+    if bpy.context.scene is not None:
+        material_nodes.wire_cycles(mat, bpy.context.scene)
     settings = mat.lamella
     settings.picked_model = picked
     settings.compiled_json = stack.to_json(indent=None)
@@ -153,6 +156,38 @@ def _flush_before(*_args):
         flush()
 
 
+def rewire(scene) -> int:
+    """Point every Lamella material's Cycles output at what ``scene`` can render (the Script node
+    with OSL on the CPU or OptiX, the node group otherwise). Returns how many changed."""
+    from . import material_nodes
+
+    changed = 0
+    for mat in bpy.data.materials:
+        if mat.library is None and mat.lamella.enabled:
+            changed += material_nodes.wire_cycles(mat, scene)
+    return changed
+
+
+_osl_state: dict[str, bool] = {}  # scene name -> whether its Cycles ran OSL at the last look
+
+
+@persistent
+def _before_render(scene, *_args):
+    _flush_before()
+    rewire(scene)
+
+
+@persistent
+def _after_depsgraph(scene, *_args):
+    """Rewire when the scene's OSL switch or device changes (cheap otherwise: one comparison)."""
+    from .material_nodes import osl_usable
+
+    state = osl_usable(scene)
+    if _osl_state.get(scene.name) != state:
+        _osl_state[scene.name] = state
+        rewire(scene)
+
+
 @persistent
 def _after_load(*_args):
     """A .blend made elsewhere: point its shaders at this installation's tables; redraw the lobe
@@ -167,7 +202,8 @@ def _after_load(*_args):
             schedule_inspector(mat)
 
 
-_HANDLERS = (("render_pre", _flush_before), ("save_pre", _flush_before), ("load_post", _after_load))
+_HANDLERS = (("render_pre", _before_render), ("save_pre", _flush_before), ("load_post", _after_load),
+             ("depsgraph_update_post", _after_depsgraph))
 
 
 def register():

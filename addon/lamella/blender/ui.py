@@ -2,9 +2,9 @@
 
 Layout, top to bottom (Blender's property split throughout):
 
-- status: compiled (model, time) / pending / the error, and the render-setting problems that
-  keep the shader from showing (engine, Open Shading Language off, GPU device), each with a
-  one-click fix;
+- status: compiled (model, time) / pending / the error, and what renders the material where it
+  is not the OSL shader (the node group in Cycles without OSL and in EEVEE), with a one-click
+  switch to Cycles with OSL;
 - presets menu, save-preset button and a menu of file actions (import/export JSON, export OSL);
 - the layer list (icon per kind, name, eye toggle to mute a layer) with add (a menu of coat
   templates), remove, duplicate and move buttons, then the base as the last row below it;
@@ -56,18 +56,21 @@ def draw_status(layout, context, mat) -> None:
         box.label(text="Compiling..." if s.status == "PENDING" else "Not compiled",
                   icon=STATUS_ICONS.get(s.status, "INFO"))
     sc = context.scene
-    problem = None
-    if sc.render.engine != "CYCLES":
-        problem = "Cycles renders this shader; EEVEE and Workbench show the material's other output."
-    elif not sc.cycles.shading_system:
-        problem = "Open Shading Language is off: the shader renders black."
-    elif sc.cycles.device == "GPU":
-        problem = "OSL runs on the CPU only (or OptiX): this GPU device renders the shader black."
-    if problem:
+    from .material_nodes import osl_usable
+
+    note, fix = None, False
+    if sc.render.engine == "CYCLES" and not osl_usable(sc):
+        why = "Open Shading Language is off" if not sc.cycles.shading_system else "this GPU device runs no OSL"
+        note, fix = f"Cycles renders the node group ({why}): the same image as the OSL shader.", True
+    elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
+        note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."
+    elif sc.render.engine != "CYCLES":
+        note, fix = "Cycles or EEVEE render this material; this engine shows its other output.", True
+    if note:
         col = box.column()
-        col.alert = sc.render.engine == "CYCLES"
-        _wrapped(col, problem, "ERROR" if col.alert else "INFO")
-        col.operator("lamella.fix_render_settings", icon="SETTINGS")
+        _wrapped(col, note, "INFO")
+        if fix:
+            col.operator("lamella.fix_render_settings", icon="SETTINGS")
 
 
 def draw_presets(layout, mat) -> None:

@@ -1,0 +1,87 @@
+"""The extension wires both backends: the Script node where Cycles runs OSL, the node group where
+it cannot (OSL off, a GPU device) and in EEVEE, switching by itself when the scene changes."""
+import numpy as np
+import pytest
+
+from lamella.core import Stack, suite
+
+pytest.importorskip("bpy")
+from lamella.blender import api, material_nodes, recompile  # noqa: E402
+
+from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
+
+
+def _shown(mat):
+    return mat.node_tree.nodes[material_nodes.OUTPUT].inputs["Surface"].links[0].from_node.name
+
+
+def test_cycles_without_osl_renders_the_node_group_and_the_same_image(addon):
+    sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
+    sc.cycles.filter_width = 0.01
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("rotated_30"))
+    assert _shown(mat) == material_nodes.SCRIPT
+    osl = render(sc)
+    sc.cycles.shading_system = False
+    nodes = render(sc)  # the render handler rewires before Cycles reads the material
+    assert _shown(mat) == material_nodes.GROUP
+    lit = osl[..., :3] > 1e-3 * osl[..., :3].max()
+    assert lit.sum() > 100
+    rel = np.abs(nodes[..., :3] - osl[..., :3])[lit] / osl[..., :3][lit]
+    assert np.median(rel) < 3e-5 and np.percentile(rel, 99) < 1e-3
+    sc.cycles.shading_system = True
+    assert recompile.rewire(sc) == 1 and _shown(mat) == material_nodes.SCRIPT
+
+
+def test_a_gpu_device_uses_the_node_group(addon):
+    sc, sphere = sphere_scene()
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("gold_coated"))
+    sc.cycles.device = "GPU"
+    assert not material_nodes.osl_usable(sc) or addon.context.preferences.addons["cycles"].preferences.compute_device_type == "OPTIX"
+    recompile.rewire(sc)
+    assert _shown(mat) == (material_nodes.SCRIPT if material_nodes.osl_usable(sc) else material_nodes.GROUP)
+
+
+def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):
+    sc, sphere = sphere_scene()
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("tinted_varnish"))
+    group = mat.node_tree.nodes[material_nodes.GROUP]
+    tree = group.node_tree
+    key = tree[material_nodes.STRUCTURE_KEY]
+    tex = mat.node_tree.nodes.new("ShaderNodeTexNoise")
+    mat.node_tree.links.new(tex.outputs["Fac"], group.inputs["coat0_ior"])
+    d = suite.load("tinted_varnish").to_dict()
+    d["layers"][0]["roughness"] = 0.2
+    api.apply_stack(mat, d)
+    assert group.node_tree is tree and tree[material_nodes.STRUCTURE_KEY] == key, "a value edit keeps the group"
+    assert group.inputs["coat0_alpha"].default_value == pytest.approx(0.2)
+    d["layers"].append({"type": "coat", "ior": 1.4, "roughness": 0.05})
+    api.apply_stack(mat, d)
+    assert tree[material_nodes.STRUCTURE_KEY] != key and group.node_tree is tree, "rebuilt in place"
+    assert group.inputs["coat0_ior"].is_linked, "a texture linked into a parameter socket stays linked"
+
+
+def test_a_copied_material_gets_its_own_group(addon):
+    sc, sphere = sphere_scene()
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("gold_coated"))
+    copy = mat.copy()
+    api.apply_stack(copy, suite.load("three_coats"))
+    a = mat.node_tree.nodes[material_nodes.GROUP].node_tree
+    b = copy.node_tree.nodes[material_nodes.GROUP].node_tree
+    assert a is not b and a[material_nodes.STRUCTURE_KEY] != b[material_nodes.STRUCTURE_KEY]
+    assert Stack.from_dict(api.read_stack(mat)).to_dict() == suite.load("gold_coated").to_dict()
+
+
+def test_eevee_renders_the_material(addon):
+    from lamella.blender.render import use_eevee
+
+    sc, sphere = sphere_scene(res=32, spp=4)
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("coat_over_brushed"))
+    use_eevee(sc)
+    px = render(sc)
+    sphere_px = px[px[..., 3] > 0.999, :3]
+    assert np.isfinite(px).all() and sphere_px.mean() > 0.05
