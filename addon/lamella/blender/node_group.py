@@ -105,6 +105,7 @@ def _chunk_group(plan: Plan, chunk):
     gout = nt.nodes.new("NodeGroupOutput")
     gout.location = ((max(depth.values(), default=0) + 1) * X_STEP, 0.0)
     in_index = {v: k for k, v in enumerate(chunk.inputs)}
+    lit_index = {v: len(chunk.inputs) + k for k, v in enumerate(literals(plan, chunk))}
     for i in chunk.nodes:
         n, node = plan.nodes[i], made[i]
         for ident, v in n.inputs.items():
@@ -113,19 +114,27 @@ def _chunk_group(plan: Plan, chunk):
                 src = (made[v.node].outputs[_out_index(plan, v)] if v.node in made
                        else gin.outputs[in_index[v]])
                 nt.links.new(src, sock)
-            elif ident == "Vector":
-                sock.default_value = (v, v, v)
             else:
-                sock.default_value = v
+                nt.links.new(gin.outputs[lit_index[float(v)]], sock)
     for k, v in enumerate(chunk.outputs):
         nt.links.new(made[v.node].outputs[_out_index(plan, v)], gout.inputs[k])
     return tree
 
 
-def _new_tree(plan: Plan, name: str, chunk):
+def literals(plan: Plan, chunk) -> list[float]:
+    """The distinct literal values a chunk's nodes read. They come in as group inputs fed by one
+    Value node per value and section: EEVEE makes every unlinked socket a uniform, and a large
+    stack's thousands of literal sockets overflow its 64 KiB uniform block (Cycles folds the
+    Value nodes back into constants)."""
+    return sorted({float(v) for i in chunk.nodes for v in plan.nodes[i].inputs.values() if not isinstance(v, Out)})
+
+
+def _new_tree(plan: Plan, name: str, chunk, with_literals: bool = True):
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for k, v in enumerate(chunk.inputs):
         _interface(tree, "INPUT", _input_name(plan, v, k), "NodeSocketFloat")
+    for v in literals(plan, chunk) if with_literals else ():
+        _interface(tree, "INPUT", f"= {v!r}", "NodeSocketFloat", v)
     for k in range(len(chunk.outputs)):
         _interface(tree, "OUTPUT", f"out{k}", "NodeSocketFloat")
     return tree
@@ -137,11 +146,18 @@ def _section_group(plan: Plan, section):
     tree = bpy.data.node_groups.get(name)
     if tree is not None:
         return tree
-    tree = _new_tree(plan, name, section)
+    tree = _new_tree(plan, name, section, with_literals=False)
     nt = tree
     gin = nt.nodes.new("NodeGroupInput")
-    gin.location = (-X_STEP, 0.0)
+    gin.location = (-2 * X_STEP, 0.0)
     in_index = {v: k for k, v in enumerate(section.inputs)}
+    values = {}
+    for k, v in enumerate(sorted({x for c in section.parts for x in literals(plan, c)})):
+        node = nt.nodes.new("ShaderNodeValue")
+        node.outputs[0].default_value = v
+        node.label = f"{v:.6g}"
+        node.location = (-X_STEP, -k * 0.6 * Y_STEP)
+        values[v] = node.outputs[0]
     made = {}
     for k, c in enumerate(section.parts):
         node = nt.nodes.new("ShaderNodeGroup")
@@ -149,6 +165,8 @@ def _section_group(plan: Plan, section):
         node.location = (k * 1.5 * X_STEP, -(k % 2) * Y_STEP)
         for j, v in enumerate(c.inputs):
             nt.links.new(made[v] if v in made else gin.outputs[in_index[v]], node.inputs[j])
+        for j, v in enumerate(literals(plan, c), start=len(c.inputs)):
+            nt.links.new(values[v], node.inputs[j])
         for j, v in enumerate(c.outputs):
             made[v] = node.outputs[j]
     gout = nt.nodes.new("NodeGroupOutput")
@@ -159,7 +177,7 @@ def _section_group(plan: Plan, section):
 
 
 def _out_index(plan: Plan, v: Out) -> int:
-    return plan.nodes[v.node].outputs.index(v.socket) if plan.nodes[v.node].bl_idname != "ShaderNodeMix" else 0
+    return plan.nodes[v.node].outputs.index(v.socket)
 
 
 # ---------------------------------------------------------------- the group

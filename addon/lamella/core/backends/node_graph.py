@@ -5,7 +5,9 @@ The model is traced once with ``Tracer`` exactly as for OSL; this module lowers 
 to a plan of Blender nodes, pure data without bpy (``lamella.blender.node_group`` instantiates it):
 
 - every arithmetic node becomes a Math node (``_MATH``), a comparison a Math node giving 0 or 1,
-  ``select`` a float Mix node, ``log`` a Math LOGARITHM to base e;
+  ``select`` c a + (1 - c) b, ``log`` a Math LOGARITHM to base e: Math nodes only, because EEVEE
+  gives every unused socket of a node a slot in the material's 64 KiB uniform block, and Mix or
+  Map Range nodes have many;
 - a table look-up becomes Image Texture reads (Linear interpolation, Extend) of the same EXR
   tables the OSL shader reads, at the texel centres of the table's nodes (``_Lowering.lut``), the
   read the OSL helpers ``lamella_tex`` / ``lamella_lut3`` make;
@@ -175,11 +177,12 @@ class _Lowering:
             self.env[id(e)] = v
 
     def select(self, cond, a, b):
+        """a where cond is 1, b where it is 0: a c + b (1 - c), exact for c in {0, 1} (Math nodes
+        rather than a Mix node: EEVEE gives each of a node's unused sockets a slot in the
+        material's uniform block, and a Mix node has eight)."""
         if not isinstance(cond, Out):
             return a if cond else b
-        i = self.add("ShaderNodeMix", {"data_type": "FLOAT", "clamp_factor": False},
-                     {"Factor_Float": cond, "A_Float": b, "B_Float": a}, ("Result_Float",))
-        return Out(i, "Result_Float")
+        return self.math("MULTIPLY_ADD", b, self.math("SUBTRACT", 1.0, cond), self.math("MULTIPLY", a, cond))
 
     def _texel(self, c, n, offset=0.0, rows=None):
         """The texture coordinate of table coordinate c (clamped to [0, 1]) on an axis of n nodes,
@@ -188,9 +191,10 @@ class _Lowering:
         lo, hi = (offset + 0.5) / rows, (offset + n - 0.5) / rows
         if not isinstance(c, Out):
             return lo + min(max(c, 0.0), 1.0) * (hi - lo)
-        i = self.add("ShaderNodeMapRange", {"data_type": "FLOAT", "interpolation_type": "LINEAR", "clamp": True},
-                     {"Value": c, "From Min": 0.0, "From Max": 1.0, "To Min": lo, "To Max": hi}, ("Result",))
-        return Out(i, "Result")
+        # clamp(c, 0, 1) as c + 0 with the Math node's clamp, then c (hi - lo) + lo
+        clamped = Out(self.add("ShaderNodeMath", {"operation": "ADD", "use_clamp": True},
+                               {"Value": c, "Value_001": 0.0}), "Value")
+        return self.math("MULTIPLY_ADD", clamped, hi - lo, lo)
 
     def _read(self, file, s, t, channels=("X",)):
         """Texture read at (s, t) in OSL's convention (t = 0 at the file's first row). Blender
@@ -239,7 +243,7 @@ class _Lowering:
 _FOLD_MATH = {
     "ADD": lambda a, b: a + b, "SUBTRACT": lambda a, b: a - b, "MULTIPLY": lambda a, b: a * b,
     "DIVIDE": lambda a, b: a / b if b != 0.0 else 0.0, "MINIMUM": min, "MAXIMUM": max,
-    "FLOOR": math.floor,
+    "FLOOR": math.floor, "MULTIPLY_ADD": lambda a, b, c: a * b + c,
 }
 
 
@@ -405,7 +409,7 @@ _NP_MATH = {
     "LESS_THAN": lambda a, b: (a < b).astype(a.dtype), "GREATER_THAN": lambda a, b: (a > b).astype(a.dtype),
     "SQRT": _safe_sqrt, "EXPONENT": np.exp, "POWER": _safe_pow, "ABSOLUTE": np.abs, "MINIMUM": np.minimum,
     "MAXIMUM": np.maximum, "COSINE": np.cos, "SINE": np.sin, "ARCTAN2": np.arctan2, "LOGARITHM": _safe_log,
-    "FLOOR": np.floor,
+    "FLOOR": np.floor, "MULTIPLY_ADD": lambda a, b, c: a * b + c,
 }
 
 
@@ -457,14 +461,8 @@ def evaluate_plan(plan: Plan, values: dict, dtype=np.float32) -> dict:
             x = {k: get(v) for k, v in n.inputs.items()}
             if n.bl_idname == "ShaderNodeMath":
                 args = [np.asarray(x[k], dtype=dtype) for k in MATH_IN if k in x]
-                env[i] = {"Value": np.asarray(_NP_MATH[n.props["operation"]](*args), dtype=dtype)}
-            elif n.bl_idname == "ShaderNodeMix":
-                f = x["Factor_Float"]
-                env[i] = {"Result_Float": np.asarray(x["A_Float"] * (1 - f) + x["B_Float"] * f, dtype=dtype)}
-            elif n.bl_idname == "ShaderNodeMapRange":
-                lo, hi = x["To Min"], x["To Max"]
-                r = (x["Value"] - x["From Min"]) / (x["From Max"] - x["From Min"]) * (hi - lo) + lo
-                env[i] = {"Result": np.clip(r, lo, hi).astype(dtype)}
+                r = np.asarray(_NP_MATH[n.props["operation"]](*args), dtype=dtype)
+                env[i] = {"Value": np.clip(r, 0, 1).astype(dtype) if n.props.get("use_clamp") else r}
             elif n.bl_idname == "ShaderNodeCombineXYZ":
                 env[i] = {"Vector": np.broadcast_arrays(x["X"], x["Y"], x["Z"])}
             elif n.bl_idname == "ShaderNodeTexImage":
