@@ -328,10 +328,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sun-dir", default="0,-1,1", help="world direction from the surface toward the sun")
     p.add_argument("--res", type=int, default=96)
     p.add_argument("--spp", type=int, default=32)
-    p.add_argument("--engine", choices=["cycles-osl", "cycles-nodes", "eevee", "principled", "reference"],
+    p.add_argument("--engine", choices=["cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled",
+                                        "reference"],
                    default="cycles-osl",
                    help="cycles-osl: the OSL shader; cycles-nodes: the node group in Cycles without OSL (as on a "
-                        "GPU); eevee: the node group in EEVEE; principled: the closest Principled BSDF; reference: "
+                        "GPU); eevee: the node group in EEVEE; principled: the closest Principled BSDF (eevee-principled: in "
+                        "EEVEE); reference: "
                         "the stack as nested interface spheres, path traced (slow)")
     p.add_argument("--out")
     p.set_defaults(fn=cmd_render)

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 
-ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "reference")
+ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled", "reference")
 SCENES = ("sphere-env", "sphere-sun", "white-furnace")
 # white-furnace (not a canonical comparison scene): a uniform white world of radiance 1, so every
 # sphere pixel shows the material's directional albedo for that pixel's view direction.
@@ -134,8 +134,10 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
             use_eevee(sphere.users_scene[0])
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
-    elif engine == "principled":
+    elif engine in ("principled", "eevee-principled"):
         nt.links.new(_principled(nt, stack).outputs["BSDF"], out.inputs["Surface"])
+        if engine == "eevee-principled":
+            use_eevee(sphere.users_scene[0])
     else:
         raise ValueError(f"engine {engine!r} is not available yet (have: {', '.join(ENGINES)})")
     return mat
