@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test package test-blender-versions bench-accuracy bench-images bench-recompile references references-pending image-references luts clean
+.PHONY: setup demo test package test-blender-versions bench-accuracy bench-images bench-recompile bench-nodes references references-pending image-references luts clean
 
 setup: $(STAMP)
 
@@ -85,6 +85,10 @@ bench-images: setup
 
 bench-recompile: setup
 	$(VENV)/bin/lamella bench recompile
+
+bench-nodes: setup
+	$(VENV)/bin/lamella bench nodes
+	$(VENV)/bin/lamella bench eevee-anisotropy
 
 luts: setup
 	$(VENV)/bin/lamella luts

@@ -116,6 +116,10 @@ def cmd_bench(a) -> int:
         from .bench import recompile
 
         print(recompile.run(BENCH_DIR).read_text())
+    elif a.what == "nodes":
+        from .bench import node_cost
+
+        print(node_cost.run(BENCH_DIR).read_text())
     elif a.what == "eevee-anisotropy":
         from .bench import eevee_standins
 
@@ -296,7 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "eevee-anisotropy", "shells",
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "nodes", "eevee-anisotropy", "shells",
                                        "trapping"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)

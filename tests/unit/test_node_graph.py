@@ -128,3 +128,14 @@ def test_table_reads_hit_texel_centres():
         t = node_graph._Lowering._texel(ops_plan, i / (n0 - 1), n0)
         got = node_graph._bilinear(img, np.array([s]), np.array([1.0 - t]))[0, 0]
         assert math.isclose(got, table[i, j], rel_tol=1e-6, abs_tol=1e-7)
+
+
+def test_live_values_say_which_stacks_fit_cycles_svm():
+    """Measured in Cycles 5.0 (bench/nodes.md): every suite stack and four coats render without
+    OSL; four coats with a medium run out of SVM stack. The estimate separates them."""
+    from lamella.bench.recompile import STACKS, _stack
+    from lamella.core.backends.node_graph import fits_svm
+
+    assert all(fits_svm(emit_plan(suite.load(n))) for n in CASES)
+    assert fits_svm(emit_plan(_stack("4 coats", "four_coats")))
+    assert not fits_svm(emit_plan(_stack("4 coats + medium", None)))

@@ -81,8 +81,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
     md = [
         "# Edit-to-updated-material latency",
         "",
-        "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, Script node sockets, lobe inspector; the "
-        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator (compiled at once). An artist "
+        "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, Script node and node group sockets, lobe inspector; the "
+        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator (compiled at once: the OSL shader, and the node group, whose nested groups are rebuilt only where their content changed). An artist "
         f"waits the debounce interval ({recompile.DEBOUNCE * 1e3:.0f} ms) plus the value-edit time.",
         "",
         "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | structure edit (ms) |",

@@ -153,7 +153,7 @@ def install_group(mat, stack, model: str, source: str) -> bool:
     Returns whether the group was rebuilt."""
     import bpy
 
-    from ..core.backends.node_graph import emit_plan
+    from ..core.backends.node_graph import emit_plan, live_values
     from . import node_group
     from .osl_compile import source_hash, source_params
 
@@ -168,8 +168,10 @@ def install_group(mat, stack, model: str, source: str) -> bool:
     if rebuilt:
         if tree is None:
             tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
-        node_group.build_group(emit_plan(stack, model), tree.name, tree)
+        plan = emit_plan(stack, model)
+        node_group.build_group(plan, tree.name, tree)
         tree[STRUCTURE_KEY] = key
+        mat.lamella.node_live_values = live_values(plan)
         node.node_tree = tree
     for name, value in source_params(source).items():
         sock = node.inputs.get(name)

@@ -58,16 +58,25 @@ def source_params(source: str) -> dict[str, float | int]:
             for m in _PARAM.finditer(source)}
 
 
-def _capture_fd2(fn):
-    """Run ``fn()`` with the C-level stderr captured; returns (result, captured text)."""
-    saved = os.dup(2)
+def capture_stderr(fn, fds=(2,)):
+    """Run ``fn()`` with the C-level stderr (and any other file descriptors in ``fds``: Blender's
+    log goes to stdout) captured; returns (result, captured text)."""
+    import sys
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(fd) for fd in fds]
     with tempfile.TemporaryFile(mode="w+b") as tmp:
-        os.dup2(tmp.fileno(), 2)
+        for fd in fds:
+            os.dup2(tmp.fileno(), fd)
         try:
             result = fn()
         finally:
-            os.dup2(saved, 2)
-            os.close(saved)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            for fd, s in zip(fds, saved):
+                os.dup2(s, fd)
+                os.close(s)
         tmp.seek(0)
         return result, tmp.read().decode(errors="replace")
 
@@ -101,7 +110,7 @@ def compile_source(source: str, name: str = "shader") -> Path:
         src = Path(tmp) / f"{name}.osl"
         src.write_text(source)
         out = Path(tmp) / f"{name}.oso"
-        ok, log = _capture_fd2(lambda: _cycles.osl_compile(str(src), str(out)))
+        ok, log = capture_stderr(lambda: _cycles.osl_compile(str(src), str(out)))
         if not ok or not out.exists():
             raise OSLCompileError(format_errors(source, log, name))
         tmp_oso = oso.with_suffix(f".{os.getpid()}.tmp")

@@ -238,6 +238,9 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
     status: EnumProperty(name="Status", items=STATUS, default="NONE")
     status_message: StringProperty(name="Message")
     compile_ms: FloatProperty(name="Compile Time", description="Milliseconds the last compile took")
+    node_live_values: IntProperty(
+        name="Node Group Live Values",
+        description="Values the node group keeps alive at once in Cycles without OSL (SVM holds about 215)")
     compiled_json: StringProperty(name="Compiled Stack", description="The stack of the shader in place (JSON)")
     inspect_angle: FloatProperty(name="View Angle", description="Angle between the view and the normal",
                                  subtype="ANGLE", default=math.radians(30.0), min=0.0,

@@ -21,7 +21,9 @@ import textwrap
 
 import bpy
 
+from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
+from .material_nodes import osl_usable
 from .operators import context_material
 from .properties import ICONS, MEDIUM_ICON
 
@@ -56,12 +58,16 @@ def draw_status(layout, context, mat) -> None:
         box.label(text="Compiling..." if s.status == "PENDING" else "Not compiled",
                   icon=STATUS_ICONS.get(s.status, "INFO"))
     sc = context.scene
-    from .material_nodes import osl_usable
 
     note, fix = None, False
     if sc.render.engine == "CYCLES" and not osl_usable(sc):
         why = "Open Shading Language is off" if not sc.cycles.shading_system else "this GPU device runs no OSL"
         note, fix = f"Cycles renders the node group ({why}): the same image as the OSL shader.", True
+        if s.node_live_values > SVM_STACK - SVM_HEADROOM:
+            note = (f"Cycles renders the node group ({why}), but this stack is too large for it "
+                    f"({s.node_live_values} live values, Cycles holds about {SVM_STACK - SVM_HEADROOM}): "
+                    "use Cycles with OSL on the CPU, or fewer coats.")
+            box.alert = True
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
         note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."
     elif sc.render.engine != "CYCLES":

@@ -1,0 +1,99 @@
+"""`lamella bench nodes`: what the node group costs, per stack class (1, 4 coats, 4 coats + a
+medium, 8 coats + media): its size (plan nodes, nested groups), the time to build it (from
+nothing, and again when every nested group already exists, as after a value edit elsewhere), and
+render times at equal samples in the same session: Cycles running the node group (SVM, what a GPU
+runs) against the OSL shader, and EEVEE against a Principled BSDF with coat. EEVEE's first render
+of a material includes compiling its shader; the second is the frame time. Renderer errors (out of
+SVM stack, uniform block too big) are captured from stderr and reported."""
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+from . import BENCH_DIR
+from .recompile import STACKS, _stack
+
+RES, SPP = 64, 16
+_ERRORS = re.compile(r"(out of SVM stack space|Uniform block \w+ too big \(\d+/\d+\))")
+
+
+def _render(sc):
+    from ..blender.osl_compile import capture_stderr
+    from ..blender.render import render_scene
+
+    (px, seconds), err = capture_stderr(lambda: render_scene(sc), fds=(1, 2))
+    return px, seconds, sorted(set(m.group(1) for m in _ERRORS.finditer(err)))
+
+
+def _scene_with(stack, engine):
+    from ..blender.render import assign_material, build_scene
+
+    sc, sphere = build_scene("sphere-env", RES, SPP)
+    assign_material(sphere, stack, engine)
+    return sc
+
+
+def measure() -> list[dict]:
+    import bpy
+
+    from ..core.backends.node_graph import emit_plan, partition
+    from ..blender.node_group import build_group
+
+    rows = []
+    for label, case in STACKS:
+        stack = _stack(label, case)
+        row = {"stack": label, "coats": len(stack.coats)}
+        plan = emit_plan(stack)
+        sections = partition(plan)
+        row.update(nodes=len(plan.nodes), chunks=sum(len(s.parts) for s in sections), sections=len(sections),
+                   lobes=len(plan.bsdfs), model=plan.model)
+        for g in list(bpy.data.node_groups):
+            bpy.data.node_groups.remove(g)
+        t0 = time.perf_counter()
+        build_group(plan, "bench")
+        row["build_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        build_group(plan, "bench")
+        row["rebuild_s"] = time.perf_counter() - t0
+        for engine in ("cycles-osl", "cycles-nodes", "eevee", "eevee-principled"):
+            sc = _scene_with(stack, engine)
+            _, first, err1 = _render(sc)
+            _, second, err2 = _render(sc)
+            row[engine] = {"first_s": first, "frame_s": second, "errors": sorted(set(err1 + err2))}
+        rows.append(row)
+    return rows
+
+
+def run(out_dir: Path = BENCH_DIR) -> Path:
+    rows = measure()
+
+    def err(r, e):
+        return "; ".join(r[e]["errors"]) or "ok"
+
+    md = [
+        "# The node group: size, build time and render cost",
+        "",
+        f"`lamella bench nodes` (this machine, 2 cores, one Blender session; sphere-env {RES}×{RES}, {SPP} samples). "
+        "*Build*: the group from nothing; *rebuild*: again with every nested group already there (a structure "
+        "edit rebuilds only the nested groups whose content changed). Render times are seconds in the same "
+        "session: compare the ratios. EEVEE's *first* render of a material includes compiling its shader; "
+        "*frame* is the second.",
+        "",
+        "| stack | model | plan nodes | nested groups (chunks / sections) | lobes | build s | rebuild s |",
+        "|---|---|---:|---|---:|---:|---:|",
+    ]
+    for r in rows:
+        md.append(f"| {r['stack']} | {r['model']} | {r['nodes']} | {r['chunks']} / {r['sections']} | {r['lobes']} | "
+                  f"{r['build_s']:.2f} | {r['rebuild_s']:.2f} |")
+    md += ["", "| stack | Cycles OSL frame s | Cycles nodes frame s | nodes / OSL | Cycles nodes | EEVEE first s | "
+               "EEVEE frame s | Principled+coat EEVEE first / frame s | EEVEE / Principled frame | EEVEE |",
+           "|---|---:|---:|---:|---|---:|---:|---:|---:|---|"]
+    for r in rows:
+        osl, svm, ev, pr = (r[e] for e in ("cycles-osl", "cycles-nodes", "eevee", "eevee-principled"))
+        md.append(f"| {r['stack']} | {osl['frame_s']:.2f} | {svm['frame_s']:.2f} | {svm['frame_s'] / osl['frame_s']:.2f} | "
+                  f"{err(r, 'cycles-nodes')} | {ev['first_s']:.1f} | {ev['frame_s']:.2f} | "
+                  f"{pr['first_s']:.1f} / {pr['frame_s']:.2f} | {ev['frame_s'] / pr['frame_s']:.2f} | {err(r, 'eevee')} |")
+    path = Path(out_dir) / "nodes.md"
+    path.write_text("\n".join(md) + "\n")
+    return path
