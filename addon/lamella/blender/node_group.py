@@ -22,7 +22,7 @@ from collections import defaultdict
 import bpy
 
 from ..core import luts
-from ..core.backends.node_graph import Out, Plan, _input_name, partition
+from ..core.backends.node_graph import Out, Plan, input_name, partition
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
 SECTION_PREFIX = ".lamella_section_"
@@ -132,7 +132,7 @@ def literals(plan: Plan, chunk) -> list[float]:
 def _new_tree(plan: Plan, name: str, chunk, with_literals: bool = True):
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for k, v in enumerate(chunk.inputs):
-        _interface(tree, "INPUT", _input_name(plan, v, k), "NodeSocketFloat")
+        _interface(tree, "INPUT", input_name(plan, v, k), "NodeSocketFloat")
     for v in literals(plan, chunk) if with_literals else ():
         _interface(tree, "INPUT", f"= {v!r}", "NodeSocketFloat", v)
     for k in range(len(chunk.outputs)):

@@ -118,6 +118,14 @@ class Plan:
         return [o for o in outs if isinstance(o, Out)]
 
 
+def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[float, float]:
+    """The texture coordinates of table coordinates 0 and 1 on an axis of n nodes: the texel
+    centres of rows ``offset`` and ``offset + n - 1`` of an image ``rows`` high (a coordinate in
+    between maps linearly, as ``lamella_tex`` in ``osl/lamella_luts.h``)."""
+    rows = rows or n
+    return (offset + 0.5) / rows, (offset + n - 0.5) / rows
+
+
 class _Lowering:
     """Traced graph -> plan nodes, sharing identical nodes."""
 
@@ -185,10 +193,8 @@ class _Lowering:
         return self.math("MULTIPLY_ADD", b, self.math("SUBTRACT", 1.0, cond), self.math("MULTIPLY", a, cond))
 
     def _texel(self, c, n, offset=0.0, rows=None):
-        """The texture coordinate of table coordinate c (clamped to [0, 1]) on an axis of n nodes,
-        the texel centres of rows ``offset`` .. ``offset + n - 1`` of an image ``rows`` high."""
-        rows = rows or n
-        lo, hi = (offset + 0.5) / rows, (offset + n - 0.5) / rows
+        """``texel_coord`` of a traced or literal coordinate."""
+        lo, hi = texel_range(n, offset, rows)
         if not isinstance(c, Out):
             return lo + min(max(c, 0.0), 1.0) * (hi - lo)
         # clamp(c, 0, 1) as c + 0 with the Math node's clamp, then c (hi - lo) + lo
@@ -388,7 +394,7 @@ def _hash(obj) -> str:
     return hashlib.sha1(json.dumps(obj).encode()).hexdigest()[:12]
 
 
-def _input_name(plan: Plan, v: Out, k: int) -> str:
+def input_name(plan: Plan, v: Out, k: int) -> str:
     """The socket name of a nested group's k-th input: the leaf's own name, else ``in<k>``."""
     return plan.leaves[-1 - v.node] if v.node < 0 else f"in{k}"
 
@@ -406,7 +412,7 @@ def _chunk_digest(plan: Plan, c: Chunk) -> str:
 
     body = [[plan.nodes[i].bl_idname, sorted(plan.nodes[i].props.items()),
              sorted((s, ref(v)) for s, v in plan.nodes[i].inputs.items())] for i in c.nodes]
-    names = [_input_name(plan, v, k) for k, v in enumerate(c.inputs)]
+    names = [input_name(plan, v, k) for k, v in enumerate(c.inputs)]
     return _hash([body, [ref(v) for v in c.outputs], names])
 
 
@@ -418,7 +424,7 @@ def _section_digest(plan: Plan, s: Chunk) -> str:
         return list(made[v]) if v in made else f"i{inputs[v]}"
 
     wiring = [[c.digest, [ref(v) for v in c.inputs]] for c in s.parts]
-    names = [_input_name(plan, v, k) for k, v in enumerate(s.inputs)]
+    names = [input_name(plan, v, k) for k, v in enumerate(s.inputs)]
     return _hash([wiring, [ref(v) for v in s.outputs], names])
 
 
@@ -454,7 +460,7 @@ _NP_MATH = {
 }
 
 
-def _image(file: str, dtype) -> np.ndarray:
+def table_pixels(file: str, dtype=np.float32) -> np.ndarray:
     """The image as Blender holds it: rows bottom first, RGBA (a one-channel table in R, G, B)."""
     for name, spec in luts.SPECS.items():
         if spec.file == file:
@@ -470,7 +476,7 @@ def _image(file: str, dtype) -> np.ndarray:
     raise KeyError(file)
 
 
-def _bilinear(img: np.ndarray, u, v):
+def bilinear(img: np.ndarray, u, v):
     """Linear, Extend image texture look-up (texel centres at (i + 0.5) / size)."""
     h, w = img.shape[:2]
     x = np.asarray(u) * w - 0.5
@@ -484,9 +490,9 @@ def _bilinear(img: np.ndarray, u, v):
     return (top * (1 - fy) + bottom * fy).astype(img.dtype)
 
 
-def evaluate_plan(plan: Plan, values: dict, dtype=np.float32) -> dict:
-    """Every plan output for leaf ``values`` (by name, broadcastable arrays), with Blender's node
-    semantics in ``dtype``: returns {Out: array}."""
+def evaluate_plan(plan: Plan, values: dict, dtype=np.float32):
+    """Run the plan on leaf ``values`` (by name, broadcastable arrays) with Blender's node
+    semantics in ``dtype``. Returns ``value_of(ref)``: the value of an ``Out`` (or a literal)."""
     dtype = np.dtype(dtype)
     leaves = [np.asarray(values[name], dtype=dtype) for name in plan.leaves]
     env: dict[int, dict] = {}
@@ -509,13 +515,13 @@ def evaluate_plan(plan: Plan, values: dict, dtype=np.float32) -> dict:
             elif n.bl_idname == "ShaderNodeTexImage":
                 f = n.props["image"]
                 if f not in images:
-                    images[f] = _image(f, dtype)
+                    images[f] = table_pixels(f, dtype)
                 u, v, _ = x["Vector"]
-                rgba = _bilinear(images[f], u, v)
+                rgba = bilinear(images[f], u, v)
                 env[i] = {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
             elif n.bl_idname == "ShaderNodeSeparateXYZ":
                 c = x["Vector"]
                 env[i] = {"X": c[..., 0], "Y": c[..., 1], "Z": c[..., 2]}
             else:
                 raise NotImplementedError(n.bl_idname)
-    return {o: get(o) for o in plan.outputs} | {"_get": get}
+    return get
