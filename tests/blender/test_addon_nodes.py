@@ -19,7 +19,9 @@ def test_cycles_without_osl_renders_the_node_group_and_the_same_image(addon):
     sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
     sc.cycles.filter_width = 0.01
     mat = new_material(sphere)
-    api.apply_stack(mat, suite.load("rotated_30"))
+    # isotropic: Blender before 5.0 reads the Glossy BSDF's anisotropy differently (the
+    # anisotropic exactness test, test_node_exactness.py, is for the Blender the project targets)
+    api.apply_stack(mat, suite.load("tinted_varnish"))
     assert _shown(mat) == material_nodes.SCRIPT
     osl = render(sc)
     sc.cycles.shading_system = False
