@@ -133,7 +133,7 @@ def test_table_reads_hit_texel_centres():
 def test_live_values_say_which_stacks_fit_cycles_svm():
     """Measured in Cycles 5.0 (bench/nodes.md): every suite stack and four coats render without
     OSL; four coats with a medium run out of SVM stack. The estimate separates them."""
-    from lamella.bench.recompile import STACKS, _stack
+    from lamella.bench.recompile import _stack
     from lamella.core.backends.node_graph import fits_svm
 
     assert all(fits_svm(emit_plan(suite.load(n))) for n in CASES)
