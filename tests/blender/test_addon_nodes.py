@@ -36,13 +36,22 @@ def test_cycles_without_osl_renders_the_node_group_and_the_same_image(addon):
 
 
 def test_a_gpu_device_uses_the_node_group(addon):
+    """A GPU device runs no OSL unless it is OptiX."""
     sc, sphere = sphere_scene()
     mat = new_material(sphere)
     api.apply_stack(mat, suite.load("gold_coated"))
-    sc.cycles.device = "GPU"
-    assert not material_nodes.osl_usable(sc) or addon.context.preferences.addons["cycles"].preferences.compute_device_type == "OPTIX"
-    recompile.rewire(sc)
-    assert _shown(mat) == (material_nodes.SCRIPT if material_nodes.osl_usable(sc) else material_nodes.GROUP)
+    prefs = addon.context.preferences.addons["cycles"].preferences
+    before = prefs.compute_device_type
+    try:
+        sc.cycles.device = "GPU"
+        prefs.compute_device_type = "CUDA"
+        recompile.rewire(sc)
+        assert _shown(mat) == material_nodes.GROUP
+        prefs.compute_device_type = "OPTIX"
+        recompile.rewire(sc)
+        assert _shown(mat) == material_nodes.SCRIPT
+    finally:
+        prefs.compute_device_type = before
 
 
 def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):

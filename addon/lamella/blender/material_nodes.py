@@ -32,6 +32,15 @@ def _place(nt):
     return (max(xs) + 200.0 if xs else 0.0), (min(ys) - 400.0 if ys else 0.0)
 
 
+def _new_owned(nt, bl_idname: str, name: str, label: str, location, **props):
+    """A node Lamella owns: found again by ``name``."""
+    node = nt.nodes.new(bl_idname)
+    node.name, node.label, node.location = name, label, location
+    for key, value in props.items():
+        setattr(node, key, value)
+    return node
+
+
 def lamella_nodes(mat):
     """(script, output, tangent) nodes of ``mat``, each None where absent."""
     nt = mat.node_tree
@@ -49,22 +58,11 @@ def ensure_nodes(mat):
     if script is None or output is None or tangent is None:
         x, y = _place(nt)
     if tangent is None:
-        tangent = nt.nodes.new("ShaderNodeTangent")
-        tangent.name = tangent.label = TANGENT
-        tangent.direction_type = "RADIAL"
-        tangent.axis = "Z"
-        tangent.location = (x, y)
+        tangent = _new_owned(nt, "ShaderNodeTangent", TANGENT, TANGENT, (x, y), direction_type="RADIAL", axis="Z")
     if script is None:
-        script = nt.nodes.new("ShaderNodeScript")
-        script.name = SCRIPT
-        script.label = "Lamella"
-        script.location = (x + 200.0, y)
-        script.width = 240.0
+        script = _new_owned(nt, "ShaderNodeScript", SCRIPT, "Lamella", (x + 200.0, y), width=240.0)
     if output is None:
-        output = nt.nodes.new("ShaderNodeOutputMaterial")
-        output.name = output.label = OUTPUT
-        output.target = "CYCLES"
-        output.location = (x + 520.0, y)
+        output = _new_owned(nt, "ShaderNodeOutputMaterial", OUTPUT, OUTPUT, (x + 520.0, y), target="CYCLES")
     return script, output, tangent
 
 
@@ -132,16 +130,9 @@ def ensure_group_nodes(mat):
     script = nt.nodes.get(SCRIPT)
     x, y = (script.location.x, script.location.y - 300.0) if script is not None else _place(nt)
     if node is None:
-        node = nt.nodes.new("ShaderNodeGroup")
-        node.name = GROUP
-        node.label = "Lamella (nodes)"
-        node.location = (x, y)
-        node.width = 240.0
+        node = _new_owned(nt, "ShaderNodeGroup", GROUP, "Lamella (nodes)", (x, y), width=240.0)
     if out is None:
-        out = nt.nodes.new("ShaderNodeOutputMaterial")
-        out.name = out.label = EEVEE_OUTPUT
-        out.target = "EEVEE"
-        out.location = (x + 320.0, y)
+        out = _new_owned(nt, "ShaderNodeOutputMaterial", EEVEE_OUTPUT, EEVEE_OUTPUT, (x + 320.0, y), target="EEVEE")
     return node, out
 
 

@@ -85,11 +85,10 @@ def _depths(plan: Plan, nodes: list[int]) -> dict[int, int]:
 # ---------------------------------------------------------------- chunks
 def _chunk_group(plan: Plan, chunk):
     """The nested group of one chunk, reused when a group of the same content exists."""
-    name = f"{CHUNK_PREFIX}{chunk.digest}"
-    tree = bpy.data.node_groups.get(name)
+    tree = bpy.data.node_groups.get(f"{CHUNK_PREFIX}{chunk.digest}")
     if tree is not None:
         return tree
-    tree = _new_tree(plan, name, chunk)
+    tree = _new_tree(plan, f"{CHUNK_PREFIX}{chunk.digest}", chunk)
     nt = tree
     depth = _depths(plan, chunk.nodes)
     rows: dict[int, int] = defaultdict(int)
@@ -141,12 +140,11 @@ def _new_tree(plan: Plan, name: str, chunk, with_literals: bool = True):
 
 
 def _section_group(plan: Plan, section):
-    """The nested group of a section: its chunks' groups, wired."""
-    name = f"{SECTION_PREFIX}{section.digest}"
-    tree = bpy.data.node_groups.get(name)
+    """The nested group of a section: its chunks' groups, wired; reused like a chunk's."""
+    tree = bpy.data.node_groups.get(f"{SECTION_PREFIX}{section.digest}")
     if tree is not None:
         return tree
-    tree = _new_tree(plan, name, section, with_literals=False)
+    tree = _new_tree(plan, f"{SECTION_PREFIX}{section.digest}", section, with_literals=False)
     nt = tree
     gin = nt.nodes.new("NodeGroupInput")
     gin.location = (-2 * X_STEP, 0.0)

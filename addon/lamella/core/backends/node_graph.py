@@ -33,9 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import lobe_kinds, luts
-from ..models import resolve
-from ..stack import Stack
+from .. import luts
+from .closures import trace_closures
 from .trace import Expr, Tracer
 
 ENERGY_EPS = 1e-6
@@ -256,18 +255,9 @@ _FOLD_MATH = {
 def emit_plan(stack, model: str = "auto") -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
     anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``)."""
-    stack = Stack.coerce(stack)
-    v = resolve(model, stack)
-    t = Tracer()
-    wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
-    lobes = v.run(t, stack, wi)
-    t.set_scope("closures")
-    specs = []
-    for lobe in lobes:
-        kind = lobe_kinds.kind(lobe.kind)
-        scale = kind.scale(t, lobe, wi)
-        color = tuple(c * scale for c in lobe.weight)
-        specs.append((lobe, color, kind.bsdf(t, kind.args(t, lobe, wi), wi)))
+    traced = trace_closures(stack, model)
+    stack, t = traced.stack, traced.tracer
+    specs = [(c, c.weight, c.kind.bsdf(t, c.args, traced.wi)) for c in traced.closures]
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]
@@ -275,18 +265,17 @@ def emit_plan(stack, model: str = "auto") -> Plan:
     low = _Lowering(t)
     low.lower(exprs)
     bsdfs = []
-    for k, (lobe, color, b) in enumerate(specs):
-        label = f"lobe {k}: {lobe.kind} ({'coat ' + str(k) if k < len(stack.coats) else 'base'})"
-        bsdfs.append(Bsdf(lobe.kind, b.bl_idname, dict(b.props), tuple(low.ref(c) for c in color),
+    for c, color, b in specs:
+        bsdfs.append(Bsdf(c.kind.name, b.bl_idname, dict(b.props), tuple(low.ref(c) for c in color),
                           {s: low.ref(x) for s, x in b.floats.items()},
                           {s: (None if vec is None else tuple(low.ref(x) for x in vec)) for s, vec in b.vectors.items()},
-                          label))
+                          c.label))
     sections = {"setup": "incident direction", "lobes": "lobes", "closures": "closure weights",
                 "base": f"base: {stack.base.type}"}
     for i, c in enumerate(stack.coats):
-        sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if getattr(c, "has_medium", False) else "")
+        sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if c.has_scattering else "")
     return Plan(low.nodes, low.leaves, {k: float(t.defaults[k]) for k in t.params}, bsdfs, sections,
-                v.name, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
+                traced.model, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
 
 
 # ---------------------------------------------------------------- register pressure
