@@ -104,7 +104,6 @@ def _chunk_group(plan: Plan, chunk):
     gout = nt.nodes.new("NodeGroupOutput")
     gout.location = ((max(depth.values(), default=0) + 1) * X_STEP, 0.0)
     in_index = {v: k for k, v in enumerate(chunk.inputs)}
-    lit_index = {v: len(chunk.inputs) + k for k, v in enumerate(literals(plan, chunk))}
     for i in chunk.nodes:
         n, node = plan.nodes[i], made[i]
         for ident, v in n.inputs.items():
@@ -114,26 +113,30 @@ def _chunk_group(plan: Plan, chunk):
                        else gin.outputs[in_index[v]])
                 nt.links.new(src, sock)
             else:
-                nt.links.new(gin.outputs[lit_index[float(v)]], sock)
+                sock.default_value = float(v)
+        _constant_inputs(node)
     for k, v in enumerate(chunk.outputs):
         nt.links.new(made[v.node].outputs[_out_index(plan, v)], gout.inputs[k])
     return tree
 
 
-def literals(plan: Plan, chunk) -> list[float]:
-    """The distinct literal values a chunk's nodes read. They come in as group inputs fed by one
-    Value node per value and section: EEVEE makes every unlinked socket a uniform, and a large
-    stack's thousands of literal sockets overflow its 64 KiB uniform block (Cycles folds the
-    Value nodes back into constants)."""
-    return sorted({float(v) for i in chunk.nodes for v in plan.nodes[i].inputs.values() if not isinstance(v, Out)})
+def _constant_inputs(node) -> None:
+    """Hide the value of every unlinked input of a plan node (its literals, and the inputs its
+    operation does not read, such as a binary Math node's third). EEVEE makes each unlinked input
+    whose value shows a uniform, a 4-byte slot in the material's 64 KiB uniform block, and a
+    group's unlinked or Value-fed input one per use: eight coats with media (21 000 nodes) needed
+    88 096 bytes. A hidden value is a constant of the generated shader instead, which the GLSL
+    compiler folds (measured: that stack's first EEVEE render took 13 s with hidden literals,
+    39 s with literals as uniforms). Cycles reads the values either way."""
+    for sock in node.inputs:
+        if not sock.is_linked:
+            sock.hide_value = True
 
 
-def _new_tree(plan: Plan, name: str, chunk, with_literals: bool = True):
+def _new_tree(plan: Plan, name: str, chunk):
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for k, v in enumerate(chunk.inputs):
         _interface(tree, "INPUT", input_name(plan, v, k), "NodeSocketFloat")
-    for v in literals(plan, chunk) if with_literals else ():
-        _interface(tree, "INPUT", f"= {v!r}", "NodeSocketFloat", v)
     for k in range(len(chunk.outputs)):
         _interface(tree, "OUTPUT", f"out{k}", "NodeSocketFloat")
     return tree
@@ -144,18 +147,11 @@ def _section_group(plan: Plan, section):
     tree = bpy.data.node_groups.get(f"{SECTION_PREFIX}{section.digest}")
     if tree is not None:
         return tree
-    tree = _new_tree(plan, f"{SECTION_PREFIX}{section.digest}", section, with_literals=False)
+    tree = _new_tree(plan, f"{SECTION_PREFIX}{section.digest}", section)
     nt = tree
     gin = nt.nodes.new("NodeGroupInput")
     gin.location = (-2 * X_STEP, 0.0)
     in_index = {v: k for k, v in enumerate(section.inputs)}
-    values = {}
-    for k, v in enumerate(sorted({x for c in section.parts for x in literals(plan, c)})):
-        node = nt.nodes.new("ShaderNodeValue")
-        node.outputs[0].default_value = v
-        node.label = f"{v:.6g}"
-        node.location = (-X_STEP, -k * 0.6 * Y_STEP)
-        values[v] = node.outputs[0]
     made = {}
     for k, c in enumerate(section.parts):
         node = nt.nodes.new("ShaderNodeGroup")
@@ -163,8 +159,6 @@ def _section_group(plan: Plan, section):
         node.location = (k * 1.5 * X_STEP, -(k % 2) * Y_STEP)
         for j, v in enumerate(c.inputs):
             nt.links.new(made[v] if v in made else gin.outputs[in_index[v]], node.inputs[j])
-        for j, v in enumerate(literals(plan, c), start=len(c.inputs)):
-            nt.links.new(values[v], node.inputs[j])
         for j, v in enumerate(c.outputs):
             made[v] = node.outputs[j]
     gout = nt.nodes.new("NodeGroupOutput")

@@ -5,9 +5,8 @@ The model is traced once with ``Tracer`` exactly as for OSL; this module lowers 
 to a plan of Blender nodes, pure data without bpy (``lamella.blender.node_group`` instantiates it):
 
 - every arithmetic node becomes a Math node (``_MATH``), a comparison a Math node giving 0 or 1,
-  ``select`` c a + (1 - c) b, ``log`` a Math LOGARITHM to base e: Math nodes only, because EEVEE
-  gives every unused socket of a node a slot in the material's 64 KiB uniform block, and Mix or
-  Map Range nodes have many;
+  ``select`` c a + (1 - c) b, ``log`` a Math LOGARITHM to base e: Math nodes only (one
+  node type, evaluated by ``evaluate_plan`` with Blender's semantics);
 - a table look-up becomes Image Texture reads (Linear interpolation, Extend) of the same EXR
   tables the OSL shader reads, at the texel centres of the table's nodes (``_Lowering.lut``), the
   read the OSL helpers ``lamella_tex`` / ``lamella_lut3`` make;
@@ -184,9 +183,7 @@ class _Lowering:
             self.env[id(e)] = v
 
     def select(self, cond, a, b):
-        """a where cond is 1, b where it is 0: a c + b (1 - c), exact for c in {0, 1} (Math nodes
-        rather than a Mix node: EEVEE gives each of a node's unused sockets a slot in the
-        material's uniform block, and a Mix node has eight)."""
+        """a where cond is 1, b where it is 0: a c + b (1 - c), exact for c in {0, 1}."""
         if not isinstance(cond, Out):
             return a if cond else b
         return self.math("MULTIPLY_ADD", b, self.math("SUBTRACT", 1.0, cond), self.math("MULTIPLY", a, cond))
