@@ -124,6 +124,10 @@ def cmd_bench(a) -> int:
         from .bench import eevee_standins
 
         print(eevee_standins.run(BENCH_DIR).read_text())
+    elif a.what == "eevee-closures":
+        from .bench import eevee_closures
+
+        print(eevee_closures.run(BENCH_DIR).read_text())
     elif a.what == "trapping":
         from .bench import trapping
 
@@ -300,7 +304,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "nodes", "eevee-anisotropy", "shells",
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "nodes", "eevee-anisotropy",
+                                       "eevee-closures", "shells",
                                        "trapping"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
     p.set_defaults(fn=cmd_bench)

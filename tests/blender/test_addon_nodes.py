@@ -96,3 +96,34 @@ def test_eevee_renders_the_material(addon):
     px = render(sc)
     sphere_px = px[px[..., 3] > 0.999, :3]
     assert np.isfinite(px).all() and sphere_px.mean() > 0.05
+
+
+def test_a_structure_edit_builds_the_group_only_when_something_renders_it(addon, tmp_path):
+    """In Cycles with OSL a structure edit updates the Script node at once; the node group, which
+    takes seconds for many coats, waits until a render, a save or an engine needs it."""
+    import json
+
+    sc, sphere = sphere_scene(res=16, spp=1)
+    mat = new_material(sphere)
+    api.apply_stack(mat, suite.load("three_coats"))
+    tree = mat.node_tree.nodes[material_nodes.GROUP].node_tree
+    key = tree[material_nodes.STRUCTURE_KEY]
+    mat.lamella.coats[1].show = False  # a structure edit
+    recompile.flush()
+    assert len(json.loads(mat.lamella.compiled_json)["layers"]) == 2, "the OSL shader follows at once"
+    assert tree[material_nodes.STRUCTURE_KEY] == key and recompile.stale_groups() == [mat.name_full]
+    render(sc)
+    assert recompile.stale_groups() == [mat.name_full], "a render with OSL does not wait for the group"
+    sc.cycles.shading_system = False
+    render(sc)  # the group renders now: built first
+    assert not recompile.stale_groups() and tree[material_nodes.STRUCTURE_KEY] != key
+    assert _shown(mat) == material_nodes.GROUP
+    assert not any(name.startswith("coat2_") for name in mat.node_tree.nodes[material_nodes.GROUP].inputs.keys())
+
+    sc.cycles.shading_system = True
+    key = tree[material_nodes.STRUCTURE_KEY]
+    mat.lamella.coats[1].show = True
+    recompile.flush()
+    assert recompile.stale_groups() == [mat.name_full]
+    addon.ops.wm.save_as_mainfile(filepath=str(tmp_path / "saved.blend"))
+    assert not recompile.stale_groups() and tree[material_nodes.STRUCTURE_KEY] != key, "a save builds it"

@@ -12,6 +12,14 @@ from . import addon_helpers  # noqa: E402
 from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
 
 
+def _same_image(a, b):
+    """The same material rendered in two scenes: the same image up to Cycles' scene-to-scene noise
+    (a fresh sphere's corner normals hash differently; measured: up to 1.2e-4 at 7 of 9216
+    pixels, 2.5e-5 elsewhere, for the very same material in one process)."""
+    d = np.abs(a - b)
+    assert np.percentile(d, 99.5) < 3e-5 and d.max() < 1e-3, (np.percentile(d, 99.5), d.max())
+
+
 def test_register_and_unregister_twice(addon):
     """The session registered the extension; take it down and up twice, then check it works."""
     for _ in range(2):
@@ -40,7 +48,7 @@ def test_save_reload_render_gives_the_same_image(addon, tmp_path):
     mat = addon.data.materials["saved"]
     assert api.read_stack(mat) == _normalised("tinted_varnish")
     after = render(addon.context.scene)
-    np.testing.assert_allclose(after, before, atol=1e-4)
+    _same_image(after, before)
 
 
 def _normalised(case):
@@ -84,7 +92,7 @@ def test_append_and_link_keep_the_stack_and_the_image(addon, tmp_path, link):
     assert api.read_stack(got) == stack
     sphere.data.materials.clear()
     sphere.data.materials.append(got)
-    np.testing.assert_allclose(render(sc), before, atol=1e-4)
+    _same_image(render(sc), before)
     if link:
         from lamella.core import StackError
 

@@ -136,12 +136,20 @@ def ensure_group_nodes(mat):
     return node, out
 
 
-def install_group(mat, stack, model: str, source: str) -> bool:
+def group_needed(scene) -> bool:
+    """Whether ``scene`` renders Lamella materials through the node group now: EEVEE, or Cycles
+    where it cannot run OSL."""
+    engine = scene.render.engine
+    return engine.startswith("BLENDER_EEVEE") or (engine == "CYCLES" and not osl_usable(scene))
+
+
+def install_group(mat, stack, model: str, source: str, build: bool = True) -> bool | None:
     """Give ``mat`` the node group of ``stack``: rebuilt only when the structure changed (the
     structure key of the OSL source, which strips parameter values), and then only the nested
     groups whose content changed; the parameter values go to the group node's sockets, so links
     into them stay. A group another material shares is copied first (copies stay independent).
-    Returns whether the group was rebuilt."""
+    With ``build`` False a structure change leaves the group as it is (the caller builds it
+    later). Returns whether the group was rebuilt, None when it was left out of date."""
     import bpy
 
     from ..core.backends.node_graph import emit_plan, live_values
@@ -152,10 +160,12 @@ def install_group(mat, stack, model: str, source: str) -> bool:
     nt = mat.node_tree
     key = source_hash(source)
     tree = node.node_tree
+    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
+    if rebuilt and not build:
+        return None
     if tree is not None and tree.users > 1:  # shared with a copied material: make it this one's own
         tree = tree.copy()
         node.node_tree = tree
-    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
     if rebuilt:
         if tree is None:
             tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")

@@ -6,6 +6,14 @@ any draw or update callback. Blender run as a module or with ``-b`` has no event
 never fire there: pending work is also flushed before every render and every save (handlers), and
 ``flush()`` does it on demand.
 
+The node group (EEVEE, Cycles without OSL) of a stack with many coats takes seconds to build
+(``bench/recompile.md``), ten times the OSL compile. A structure edit therefore updates the Script
+node at once and builds the group only when something renders it: at once if a scene needs it
+(EEVEE, or Cycles without OSL: ``material_nodes.group_needed``), else after ``GROUP_DELAY`` seconds
+without edits (the viewport's Material Preview runs EEVEE), before a render that needs it, before
+a save, and when a scene switches to an engine that needs it. ``apply_stack`` and the operators
+build both at once.
+
 A compile validates the stack, traces and compiles the shader, and only then touches the
 material. A stack that fails (a forced model that cannot run it, a compile error) leaves the last
 working shader in place and puts the message, which names the layer and field, in the status.
@@ -19,8 +27,10 @@ import bpy
 from bpy.app.handlers import persistent
 
 DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
+GROUP_DELAY = 0.5  # seconds of quiet after an edit before a node group nobody renders is rebuilt
 
 _pending: dict[str, bool] = {}  # material name_full -> whether its shader must be rebuilt
+_stale_groups: set[str] = set()  # materials whose node group waits for a rebuild
 _last_edit = 0.0
 _suspended = 0
 
@@ -76,7 +86,7 @@ def _on_timer():
 
 
 def flush() -> None:
-    """Do all pending work now."""
+    """Do all pending work now; a node group no scene renders now waits (``flush_groups``)."""
     work = dict(_pending)
     _pending.clear()
     for key, shader in work.items():
@@ -84,11 +94,48 @@ def flush() -> None:
         if mat is None or not mat.lamella.enabled:
             continue
         if shader:
-            compile_material(mat)
+            compile_material(mat, defer_group=not _groups_needed())
         else:
             from . import inspector
 
             inspector.update(mat)
+
+
+def _groups_needed() -> bool:
+    from .material_nodes import group_needed
+
+    return any(group_needed(sc) for sc in bpy.data.scenes)
+
+
+def stale_groups() -> list[str]:
+    """The materials whose node group waits for a rebuild."""
+    return sorted(_stale_groups)
+
+
+def flush_groups() -> None:
+    """Build every node group that waits, from the stack and shader the material shows."""
+    from ..core.stack import Stack
+    from . import material_nodes
+
+    work = sorted(_stale_groups)
+    _stale_groups.clear()
+    for key in work:
+        mat = _material(key)
+        script = mat.node_tree.nodes.get(material_nodes.SCRIPT) if mat is not None and mat.node_tree else None
+        if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
+            continue
+        stack = Stack.from_json(mat.lamella.compiled_json)
+        material_nodes.install_group(mat, stack, mat.lamella.model, script.script.as_string())
+        if bpy.context.scene is not None:
+            material_nodes.wire_cycles(mat, bpy.context.scene)
+
+
+def _on_group_timer():
+    wait = GROUP_DELAY - (time.perf_counter() - _last_edit)
+    if _pending or wait > 1e-3:
+        return max(wait, DEBOUNCE)
+    flush_groups()
+    return None
 
 
 def build_shader(stack, model: str):
@@ -105,14 +152,20 @@ def build_shader(stack, model: str):
     return source, compile_source(source, "lamella"), picked
 
 
-def install(mat, stack, built, t0: float | None = None) -> None:
-    """Put a built shader into ``mat`` and record what it shows."""
+def install(mat, stack, built, t0: float | None = None, defer_group: bool = False) -> None:
+    """Put a built shader into ``mat`` and record what it shows. With ``defer_group`` a structure
+    change leaves the node group for ``flush_groups`` (a timer, a render or a save)."""
     from ..core import luts
     from . import inspector, material_nodes
 
     source, oso, picked = built
     material_nodes.install_shader(mat, source, oso, str(luts.DATA_DIR))
-    material_nodes.install_group(mat, stack, mat.lamella.model, source)
+    if material_nodes.install_group(mat, stack, mat.lamella.model, source, build=not defer_group) is None:
+        _stale_groups.add(mat.name_full)
+        if not bpy.app.timers.is_registered(_on_group_timer):
+            bpy.app.timers.register(_on_group_timer, first_interval=GROUP_DELAY)
+    else:
+        _stale_groups.discard(mat.name_full)
     if bpy.context.scene is not None:
         material_nodes.wire_cycles(mat, bpy.context.scene)
     settings = mat.lamella
@@ -125,10 +178,11 @@ def install(mat, stack, built, t0: float | None = None) -> None:
     inspector.update(mat)
 
 
-def compile_material(mat, raise_errors: bool = False) -> bool:
-    """Rebuild ``mat``'s shader from the stack its properties hold, under its model setting. On
-    failure the status says why and the material keeps its shader (with ``raise_errors`` the
-    error is raised too). Returns whether it compiled."""
+def compile_material(mat, raise_errors: bool = False, defer_group: bool = False) -> bool:
+    """Rebuild ``mat``'s shader from the stack its properties hold, under its model setting (and
+    its node group, unless ``defer_group``: see ``install``). On failure the status says why and
+    the material keeps its shader (with ``raise_errors`` the error is raised too). Returns whether
+    it compiled."""
     from ..core.models import UnsupportedStack
     from ..core.stack import Stack, StackError
     from .osl_compile import OSLCompileError
@@ -145,15 +199,18 @@ def compile_material(mat, raise_errors: bool = False) -> bool:
         if raise_errors:
             raise
         return False
-    install(mat, stack, built, t0)
+    install(mat, stack, built, t0, defer_group)
     return True
 
 
 # ---------------------------------------------------------------- handlers
 @persistent
 def _flush_before(*_args):
+    """Before a save: every pending shader and node group, so the file holds both up to date."""
     if _pending:
         flush()
+    if _stale_groups:
+        flush_groups()
 
 
 def rewire(scene) -> int:
@@ -168,23 +225,31 @@ def rewire(scene) -> int:
     return changed
 
 
-_osl_state: dict[str, bool] = {}  # scene name -> whether its Cycles ran OSL at the last look
+_osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles ran OSL) at the last look
 
 
 @persistent
 def _before_render(scene, *_args):
-    _flush_before()
+    from .material_nodes import group_needed
+
+    if _pending:
+        flush()
+    if _stale_groups and group_needed(scene):
+        flush_groups()
     rewire(scene)
 
 
 @persistent
 def _after_depsgraph(scene, *_args):
-    """Rewire when the scene's OSL switch or device changes (cheap otherwise: one comparison)."""
-    from .material_nodes import osl_usable
+    """Rewire when the scene's engine, OSL switch or device changes, building the node groups
+    that wait if the scene now renders them (cheap otherwise: one comparison)."""
+    from .material_nodes import group_needed, osl_usable
 
-    state = osl_usable(scene)
+    state = (scene.render.engine, osl_usable(scene))
     if _osl_state.get(scene.name) != state:
         _osl_state[scene.name] = state
+        if _stale_groups and group_needed(scene):
+            flush_groups()
         rewire(scene)
 
 
@@ -196,6 +261,7 @@ def _after_load(*_args):
     from . import material_nodes
 
     _pending.clear()
+    _stale_groups.clear()
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled:
             material_nodes.refresh_lut_dir(mat, str(luts.DATA_DIR))
@@ -218,6 +284,8 @@ def unregister():
         lst = getattr(bpy.app.handlers, name)
         while fn in lst:
             lst.remove(fn)
-    if bpy.app.timers.is_registered(_on_timer):
-        bpy.app.timers.unregister(_on_timer)
+    for timer in (_on_timer, _on_group_timer):
+        if bpy.app.timers.is_registered(timer):
+            bpy.app.timers.unregister(timer)
     _pending.clear()
+    _stale_groups.clear()
