@@ -89,6 +89,7 @@ bench-recompile: setup
 bench-nodes: setup
 	$(VENV)/bin/lamella bench nodes
 	$(VENV)/bin/lamella bench eevee-anisotropy
+	$(VENV)/bin/lamella bench eevee-closures
 
 luts: setup
 	$(VENV)/bin/lamella luts

@@ -3,7 +3,8 @@ medium, 8 coats + media): its size (plan nodes, nested groups), the time to buil
 nothing, and again when every nested group already exists, as after a value edit elsewhere), and
 render times at equal samples in the same session: Cycles running the node group (SVM, what a GPU
 runs) against the OSL shader, and EEVEE against a Principled BSDF with coat. EEVEE's first render
-of a material includes compiling its shader; the second is the frame time. Renderer errors (out of
+of a material includes compiling its shader (Mesa's on-disk shader cache off); the second is the
+frame time. Renderer errors (out of
 SVM stack, uniform block too big) are captured from stderr and reported."""
 from __future__ import annotations
 
@@ -35,6 +36,11 @@ def _scene_with(stack, engine):
 
 
 def measure() -> list[dict]:
+    import os
+
+    # Mesa (EEVEE's OpenGL here) keeps compiled shaders on disk: without this a stack measured
+    # before would show no compile time in its first EEVEE render
+    os.environ["MESA_SHADER_CACHE_DISABLE"] = "true"
     import bpy
 
     from ..core.backends.node_graph import emit_plan, partition
@@ -77,8 +83,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         f"`lamella bench nodes` (this machine, 2 cores, one Blender session; sphere-env {RES}×{RES}, {SPP} samples). "
         "*Build*: the group from nothing; *rebuild*: again with every nested group already there (a structure "
         "edit rebuilds only the nested groups whose content changed). Render times are seconds in the same "
-        "session: compare the ratios. EEVEE's *first* render of a material includes compiling its shader; "
-        "*frame* is the second.",
+        "session: compare the ratios. EEVEE's *first* render of a material includes compiling its shader "
+        "(Mesa's on-disk shader cache off); *frame* is the second.",
         "",
         "| stack | model | plan nodes | nested groups (chunks / sections) | lobes | build s | rebuild s |",
         "|---|---|---:|---|---:|---:|---:|",

@@ -76,10 +76,11 @@ class _MaterialOperator:
         return result or {"FINISHED"}
 
     def compiled(self, mat) -> None:
-        """Compile now and report an error the compile met (the material keeps its last shader)."""
+        """Compile now and report an error the compile met (the material keeps its last shader);
+        the node group waits where no scene renders it (``recompile.flush_groups``)."""
         from . import recompile
 
-        if not recompile.compile_material(mat):
+        if not recompile.compile_material(mat, defer_group=not recompile.groups_needed()):
             self.report({"WARNING"}, f"{mat.name}: {mat.lamella.status_message}")
 
 

@@ -11,8 +11,8 @@ The node group (EEVEE, Cycles without OSL) of a stack with many coats takes seco
 node at once and builds the group only when something renders it: at once if a scene needs it
 (EEVEE, or Cycles without OSL: ``material_nodes.group_needed``), else after ``GROUP_DELAY`` seconds
 without edits (the viewport's Material Preview runs EEVEE), before a render that needs it, before
-a save, and when a scene switches to an engine that needs it. ``apply_stack`` and the operators
-build both at once.
+a save, and when a scene switches to an engine that needs it. The layer operators (add, remove,
+duplicate, move) do the same; ``apply_stack`` and the Recompile operator build both at once.
 
 A compile validates the stack, traces and compiles the shader, and only then touches the
 material. A stack that fails (a forced model that cannot run it, a compile error) leaves the last
@@ -94,14 +94,15 @@ def flush() -> None:
         if mat is None or not mat.lamella.enabled:
             continue
         if shader:
-            compile_material(mat, defer_group=not _groups_needed())
+            compile_material(mat, defer_group=not groups_needed())
         else:
             from . import inspector
 
             inspector.update(mat)
 
 
-def _groups_needed() -> bool:
+def groups_needed() -> bool:
+    """Whether a scene of the file renders Lamella materials through the node group now."""
     from .material_nodes import group_needed
 
     return any(group_needed(sc) for sc in bpy.data.scenes)
