@@ -127,3 +127,26 @@ def test_a_structure_edit_builds_the_group_only_when_something_renders_it(addon,
     assert recompile.stale_groups() == [mat.name_full]
     addon.ops.wm.save_as_mainfile(filepath=str(tmp_path / "saved.blend"))
     assert not recompile.stale_groups() and tree[material_nodes.STRUCTURE_KEY] != key, "a save builds it"
+
+    # a layer operator defers the group the same way
+    addon.ops.lamella.layer_duplicate(material=mat.name)
+    assert len(json.loads(mat.lamella.compiled_json)["layers"]) == 4
+    assert recompile.stale_groups() == [mat.name_full]
+    recompile.flush_groups()
+    assert "coat3_ior" in mat.node_tree.nodes[material_nodes.GROUP].inputs, "flush_groups builds it"
+
+
+def test_the_group_shows_no_unlinked_value_inside_its_math(addon):
+    """EEVEE makes every unlinked input whose value shows a uniform of its 64 KiB block, one per
+    use: eight coats with media did not compile that way (88 096 bytes). Inside the nested groups
+    every unlinked input is hidden (a constant of the generated shader)."""
+    from lamella.blender.node_group import CHUNK_PREFIX
+
+    mat = addon.data.materials.new("hidden_values")
+    api.apply_stack(mat, suite.load("fog_g07"))
+    chunks = [g for g in addon.data.node_groups if g.name.startswith(CHUNK_PREFIX)]
+    assert chunks
+    shown = [(g.name, n.name, s.identifier) for g in chunks for n in g.nodes
+             if n.bl_idname not in ("NodeGroupInput", "NodeGroupOutput")
+             for s in n.inputs if not s.is_linked and not s.hide_value]
+    assert not shown, shown[:5]
