@@ -41,6 +41,18 @@ def _stack(label, case):
     return Stack.from_dict(d)
 
 
+def _use(scene, setting: str) -> None:
+    """EEVEE, or Cycles with OSL on the CPU."""
+    if setting == "eevee":
+        from ..blender.render import use_eevee
+
+        use_eevee(scene)
+    else:
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.shading_system = True
+
+
 def run(out_dir: Path = BENCH_DIR) -> Path:
     import bpy
 
@@ -63,33 +75,42 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
             lines = len(mat.node_tree.nodes["Lamella Shader"].script.as_string().splitlines())
         full = len(mat.lamella.coats) == MAX_COATS  # make room for the duplicate first
         mat.lamella.active_index = len(mat.lamella.coats) - 1  # the bottom coat: the medium on top stays
-        for k in range(REPEATS):
-            if full:
-                bpy.ops.lamella.layer_remove(material=mat.name)
-            t0 = time.perf_counter()
-            bpy.ops.lamella.layer_duplicate(material=mat.name)  # a structure change, compiled at once
-            structure.append(time.perf_counter() - t0)
-            if not full:
-                bpy.ops.lamella.layer_remove(material=mat.name)
+        structure = {}
+        for setting in ("eevee", "cycles-osl"):
+            _use(bpy.context.scene, setting)
+            times = structure[setting] = []
+            for k in range(REPEATS):
+                if full:
+                    bpy.ops.lamella.layer_remove(material=mat.name)
+                    recompile.flush_groups()
+                t0 = time.perf_counter()
+                bpy.ops.lamella.layer_duplicate(material=mat.name)  # a structure change
+                times.append(time.perf_counter() - t0)
+                recompile.flush_groups()  # a group left waiting is built before the next edit
+                if not full:
+                    bpy.ops.lamella.layer_remove(material=mat.name)
+                    recompile.flush_groups()
         from ..core.backends.osl import emit_osl
 
         t0 = time.perf_counter()
         emit_osl(stack)
         trace = time.perf_counter() - t0
         rows.append((label, len(stack.coats), mat.lamella.picked_model, lines, trace, statistics.median(value),
-                     statistics.median(structure)))
+                     statistics.median(structure["eevee"]), statistics.median(structure["cycles-osl"])))
     md = [
         "# Edit-to-updated-material latency",
         "",
         "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, Script node and node group sockets, lobe inspector; the "
-        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator (compiled at once: the OSL shader, and the node group, whose nested groups are rebuilt only where their content changed). An artist "
+        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator, in a scene that renders the node group (EEVEE: the OSL shader and the group, whose nested groups are rebuilt only where their content changed, at once) and in one that renders the OSL shader (Cycles with OSL on the CPU: the group waits until something renders it, half a second without edits, a render or a save). An artist "
         f"waits the debounce interval ({recompile.DEBOUNCE * 1e3:.0f} ms) plus the value-edit time.",
         "",
-        "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | structure edit (ms) |",
-        "|---|---|---|---|---|---|---|",
+        "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | structure edit, EEVEE (ms) | "
+        "structure edit, Cycles OSL (ms) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
-    for label, n, model, lines, trace, v, s in rows:
-        md.append(f"| {label} | {n} | {model} | {lines} | {trace * 1e3:.0f} | {v * 1e3:.0f} | {s * 1e3:.0f} |")
+    for label, n, model, lines, trace, v, s_eevee, s_osl in rows:
+        md.append(f"| {label} | {n} | {model} | {lines} | {trace * 1e3:.0f} | {v * 1e3:.0f} | {s_eevee * 1e3:.0f} | "
+                  f"{s_osl * 1e3:.0f} |")
     path = Path(out_dir) / "recompile.md"
     path.write_text("\n".join(md) + "\n")
     return path
