@@ -4,8 +4,8 @@ nothing, and again when every nested group already exists, as after a value edit
 render times at equal samples in the same session: Cycles running the node group (SVM, what a GPU
 runs) against the OSL shader, and EEVEE against a Principled BSDF with coat. EEVEE's first render
 of a material includes compiling its shader (Mesa's on-disk shader cache off); the second is the
-frame time. Renderer errors (out of
-SVM stack, uniform block too big) are captured from stderr and reported."""
+frame time. Renderer errors (out of SVM stack, uniform block too big) are captured from stderr and
+reported."""
 from __future__ import annotations
 
 import re

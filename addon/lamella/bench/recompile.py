@@ -66,7 +66,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         stack = _stack(label, case)
         mat = bpy.data.materials.new(label)
         api.apply_stack(mat, stack)
-        value, structure, lines = [], [], 0
+        value, lines = [], 0
         for k in range(REPEATS):
             mat.lamella.coats[0].coat.roughness = 0.1 + 0.01 * k  # a value edit: a new shader each time
             t0 = time.perf_counter()
