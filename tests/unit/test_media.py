@@ -206,17 +206,22 @@ def test_media_outputs_are_finite_and_passive(dtype, d, cos):
 
 
 def test_medium_shader_cost_does_not_depend_on_depth():
-    """Thin and thick media trace to the same shader: only the parameter defaults differ."""
+    """Thin and thick media trace to the same shader: only the parameter defaults differ; staged,
+    both cost a table read per column and their closures, whatever the depth."""
     import re
 
     from lamella.core import suite
     from lamella.core.backends.osl import emit_osl
+    from lamella.core.backends.staging import stage
 
     def body(name):
-        src = emit_osl(suite.load(name), name="s")
+        src = emit_osl(suite.load(name), name="s", staged=False)
         return [ln for ln in src.splitlines() if not ln.startswith("// stack:") and not re.match(r"    float \w+ = [-\d.e]+,$", ln)]
 
     assert body("fog_g09_d01") == body("fog_g09_d4")
+    thin, thick = (stage(suite.load(n), budget="all") for n in ("fog_g09_d01", "fog_g09_d4"))
+    assert len(thin.closures) == len(thick.closures)
+    assert abs(thin.columns - thick.columns) <= 2
 
 
 @pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.005, 0.3, 0.9, 0.999])

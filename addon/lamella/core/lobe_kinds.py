@@ -40,36 +40,43 @@ class BsdfNode:
 
 @dataclass(frozen=True)
 class LobeKind:
-    """``closure_cos(ops, lobe, wi, wo)``: f cos of the closure of weight 1 (backend values);
-    ``scale(ops, lobe, wi)``: the normaliser; ``side``: ``"reflected"`` or ``"transmitted"``;
-    ``args(ops, lobe, wi)``: the closure's arguments as named backend values (roughness, axes,
-    normal), which a backend prints or wires; ``osl(a)``: the Cycles OSL closure call, given the
-    printed expressions ``a`` of those arguments; ``bsdf(ops, a, wi)``: the Blender BSDF node
+    """A closure is a function of its arguments, the named values ``args(ops, lobe, wi)`` turns a
+    lobe into (roughness, axes, normal) and a backend prints or wires:
+    ``cos_of_args(ops, a, wi, wo)``: f cos of the closure of weight 1; ``scale_of_args(ops, a,
+    wi)``: the normaliser that makes the closure carry its lobe's energy; ``side``:
+    ``"reflected"`` or ``"transmitted"``; ``osl(a)``: the Cycles OSL closure call, given the
+    printed expressions ``a`` of the arguments; ``bsdf(ops, a, wi)``: the Blender BSDF node
     (``BsdfNode``) that makes the same closure in Cycles without OSL, and in EEVEE what EEVEE
-    makes of that node; ``description``: one line for docs and tables;
-    ``rough``: the lobe is a microfacet lobe, a delta at zero roughness."""
+    makes of that node; ``description``: one line for docs and tables; ``rough``: the lobe is a
+    microfacet lobe, a delta at zero roughness. ``closure_cos`` and ``scale`` are the same of a
+    lobe."""
 
     name: str
     side: str
-    closure_cos: Callable
-    scale: Callable
+    cos_of_args: Callable
+    scale_of_args: Callable
     args: Callable
     osl: Callable
     bsdf: Callable
     description: str
     rough: bool = True
 
+    def closure_cos(self, ops, lobe, wi, wo):
+        return self.cos_of_args(ops, self.args(ops, lobe, wi), wi, wo)
 
-def _ggx_closure_cos(ops, lobe, wi, wo):
-    c, s = ops.cos(lobe.rotation), ops.sin(lobe.rotation)
-    return ggx_lobe_cos(ops, wi, wo, lobe.alpha_x, lobe.alpha_y, c, s)
+    def scale(self, ops, lobe, wi):
+        return self.scale_of_args(ops, self.args(ops, lobe, wi), wi)
 
 
-def _gd_scale(ops, lobe, wi):
+def _ggx_closure_cos(ops, a, wi, wo):
+    return ggx_lobe_cos(ops, wi, wo, a["ax"], a["ay"], a["cos"], a["sin"])
+
+
+def _gd_scale(ops, a, wi):
     """1 / GD at the lobe's RMS roughness: exact for isotropic lobes, and within a few percent of
     the numerically integrated albedo of anisotropic GGX up to 70 degrees (the projected roughness
     along wi is much worse; measured in tests/unit/test_models.py)."""
-    return 1.0 / ops.max(gd(ops, wi[2], rms_alpha(ops, lobe.alpha_x, lobe.alpha_y)), GD_FLOOR)
+    return 1.0 / ops.max(gd(ops, wi[2], rms_alpha(ops, a["ax"], a["ay"])), GD_FLOOR)
 
 
 def _osl_tangent(c: str, s: str) -> str:
@@ -86,19 +93,19 @@ def _osl_ggx_reflection(a: dict) -> str:
     return f'microfacet("ggx", Normal, {_osl_tangent(a["cos"], a["sin"])}, {a["ax"]}, {a["ay"]}, 1.0, 0)'
 
 
-def _backscatter_closure_cos(ops, lobe, wi, wo):
+def _backscatter_closure_cos(ops, a, wi, wo):
     """An isotropic GGX reflection whose normal is the incident direction: its mirror direction
     is wi itself (back-scattered light returns toward the viewer). Evaluated in that lobe's frame
     (z' = wi): only c = wo . wi matters; zero below the surface."""
     c = wi[0] * wo[0] + wi[1] * wo[1] + wi[2] * wo[2]
     sin_c = ops.sqrt(ops.max(1.0 - c * c, 0.0))
-    value = ggx_lobe_cos(ops, (0.0, 0.0, 1.0), (sin_c, 0.0, c), lobe.alpha_x, lobe.alpha_y, 1.0, 0.0)
+    value = ggx_lobe_cos(ops, (0.0, 0.0, 1.0), (sin_c, 0.0, c), a["alpha"], a["alpha"], 1.0, 0.0)
     return ops.select(wo[2] > 0.0, value, 0.0)
 
 
-def _backscatter_scale(ops, lobe, wi):
+def _backscatter_scale(ops, a, wi):
     """1 / GD at normal incidence in the lobe's own frame (its mean is its normal)."""
-    return 1.0 / ops.max(gd(ops, 1.0, lobe.alpha_x), GD_FLOOR)
+    return 1.0 / ops.max(gd(ops, 1.0, a["alpha"]), GD_FLOOR)
 
 
 def _backscatter_args(ops, lobe, wi):
@@ -149,7 +156,7 @@ def _transmission_normal(ops, lobe, wi):
     return nx * inv, ny * inv, nz * inv
 
 
-def _transmission_closure_cos(ops, lobe, wi, wo):
+def _transmission_closure_cos(ops, args, wi, wo):
     """Cycles' refracting GGX closure ``microfacet("ggx", n, alpha_w, REFRACT_ETA, 1)`` (isotropic
     Walter et al. 2007 BTDF, Eqs. 16, 21 and 33, with Fresnel replaced by 1 and the height-correlated
     Smith G2; ``bsdf_microfacet_eval`` of Cycles 5.0), evaluated as Cycles does: with h = -(eta wo
@@ -161,8 +168,8 @@ def _transmission_closure_cos(ops, lobe, wi, wo):
     refraction hardly bends, so this is a GGX lobe about -n: the transmitted direction, tilted by
     the closure normal ``_transmission_normal`` (Belcour 2018's rough refraction as a lobe about the
     refracted mean)."""
-    n = _transmission_normal(ops, lobe, wi)
-    a = _transmission_alpha(ops, lobe)
+    n = (args["nx"], args["ny"], args["nz"])
+    a = args["alpha"]
     a2 = a * a
     eta = REFRACT_ETA
     hx, hy, hz = -(eta * wo[0] + wi[0]), -(eta * wo[1] + wi[1]), -(eta * wo[2] + wi[2])
@@ -183,11 +190,11 @@ def _transmission_closure_cos(ops, lobe, wi, wo):
     return ops.select(wo[2] < 0.0, ops.select(c_o < 0.0, value, 0.0), 0.0)
 
 
-def _transmission_scale(ops, lobe, wi):
+def _transmission_scale(ops, args, wi):
     """1 / the closure's directional transmittance at weight 1 (``ggx_refract_albedo``)."""
-    n = _transmission_normal(ops, lobe, wi)
+    n = (args["nx"], args["ny"], args["nz"])
     mu = wi[0] * n[0] + wi[1] * n[1] + wi[2] * n[2]
-    a = _transmission_alpha(ops, lobe)
+    a = args["alpha"]
     t = ops.lut("ggx_refract_albedo", luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, a))
     return 1.0 / ops.max(t, GD_FLOOR)
 
@@ -243,11 +250,11 @@ def _bsdf_diffuse(ops, a, wi):
     return BsdfNode("ShaderNodeBsdfDiffuse", {}, {"Roughness": 0.0}, {"Normal": (0.0, 0.0, 1.0)})
 
 
-def _lambert_closure_cos(ops, lobe, wi, wo):
+def _lambert_closure_cos(ops, a, wi, wo):
     return ops.select(wo[2] > 0.0, wo[2] * (1.0 / math.pi), 0.0)
 
 
-def _unit_scale(ops, lobe, wi):
+def _unit_scale(ops, a, wi):
     return 1.0
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 from .. import luts
@@ -62,6 +63,7 @@ class _Printer:
         self.names: dict[int, str] = {}
         self.lines: list[str] = []
         self._packed: dict[tuple, str] = {}
+        self.table_shape = (0, 0, 0)
 
     def ref(self, a) -> str:
         if isinstance(a, Expr):
@@ -91,9 +93,44 @@ class _Printer:
                 rhs = f"{self.ref(a[0])} ? {self.ref(a[1])} : {self.ref(a[2])}"
             elif e.op == "lut":
                 rhs = self._packed_read(a) or self._lut(a[0], [self.ref(c) for c in a[1:]], a[1:])
+            elif e.op == "mtab":
+                rhs = self._mtab(int(a[0]), self.ref(a[1]), self.ref(a[2]))
             else:
                 rhs = f"{_FUN[e.op]}({', '.join(self.ref(x) for x in a)})"
             self.lines.append(f"    {'int' if e.op in _CMP else 'float'} {name} = {rhs};")
+
+    def _mtab(self, col: int, c: str, p: str) -> str:
+        """Column ``col`` of the material table ``MT`` (``staging.lookup``: linear along c,
+        linear and periodic along p): the node indices and weights are computed once per
+        coordinate pair and shared by every column read there."""
+        n_mu, n_phi, cols = self.table_shape
+        key = ("mtab", c, p)
+        var = self._packed.get(key)
+        if var is None:
+            var = self._packed[key] = f"mt{len(self._packed)}"
+            self.lines += [
+                f"    float {var}_x = clamp({c}, 0.0, 1.0) * {float(n_mu - 1)!r};",
+                f"    int {var}_i = min((int)floor({var}_x), {n_mu - 2});",
+                f"    float {var}_f = {var}_x - {var}_i;",
+            ]
+            if n_phi == 1:
+                self.lines += [f"    int {var}_a = {var}_i * {cols};", f"    int {var}_b = {var}_a + {cols};"]
+            else:
+                self.lines += [
+                    f"    float {var}_y = {p} * {float(n_phi)!r};",
+                    f"    int {var}_j = min((int)floor({var}_y), {n_phi - 1});",
+                    f"    float {var}_g = {var}_y - {var}_j;",
+                    f"    int {var}_k = {var}_j + 1 == {n_phi} ? 0 : {var}_j + 1;",
+                    f"    int {var}_a = ({var}_i * {n_phi} + {var}_j) * {cols};",
+                    f"    int {var}_b = {var}_a + {n_phi * cols};",
+                    f"    int {var}_c = ({var}_i * {n_phi} + {var}_k) * {cols};",
+                    f"    int {var}_d = {var}_c + {n_phi * cols};",
+                ]
+        f = f"{var}_f"
+        lerp = lambda a, b: f"(MT[{a} + {col}] + (MT[{b} + {col}] - MT[{a} + {col}]) * {f})"  # noqa: E731
+        if n_phi == 1:
+            return lerp(f"{var}_a", f"{var}_b")
+        return f"mix({lerp(f'{var}_a', f'{var}_b')}, {lerp(f'{var}_c', f'{var}_d')}, {var}_g)"
 
     def _packed_read(self, a) -> str | None:
         """A read of one slice of a table that has an RGBA-packed atlas (luts.PACKED), at a slice
@@ -172,72 +209,141 @@ def _blocked(lines: list[str]) -> list[str]:
     return out + block + ["    }"]
 
 
-def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
-             view: str = "cycles") -> str:
-    """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``.
+@dataclass
+class OslShader:
+    """A generated shader and what the Blender side needs to know of it, straight from the IR:
+    ``source``; ``params`` the value of every shader parameter by name (the Script node's
+    sockets); ``live`` the parameters the shader reads (the rest are baked into its table);
+    ``staged`` the staged shader (None for the fully traced one); ``structure_key`` what
+    identifies its structure apart from values; ``model`` the model that ran."""
 
+    source: str
+    params: dict
+    live: tuple
+    model: str
+    staged: object = None
+    uses_tables: bool = True
+
+
+def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
+             view: str = "cycles", live=(), budget="auto", staged: bool = True) -> str:
+    """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``
+    (``osl_shader``)."""
+    return osl_shader(stack, model, name, lut_dir, view, live, budget, staged).source
+
+
+def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
+               view: str = "cycles", live=(), budget="auto", staged: bool = True) -> OslShader:
+    """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
+
+    ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
+    (``lamella.core.backends.staging``): the view-only part is a constant table inside the shader,
+    lobes merged to ``budget``; every parameter of the model is still a shader parameter (a socket
+    to link a texture into), read only where live. ``staged=False``: the whole model traced, every
+    parameter read (the shader before staging, kept for comparison).
     ``name``: the shader's name (default ``lamella_<stack name>``); ``lut_dir``: the default of
-    the shader's ``lut_dir`` parameter, the folder of the EXR tables (default: the package's data
-    folder, as an absolute path; a relative path is kept as given, to be resolved by the
-    renderer); ``view``: the renderer's convention for ``I`` (VIEW_TARGETS), which sets the one
+    the shader's ``lut_dir`` parameter, the folder of the EXR tables the traced model reads
+    (default: the package's data folder, as an absolute path; a relative path is kept as given, to
+    be resolved by the renderer); a staged shader with nothing live reads no file and has no
+    ``lut_dir``. ``view``: the renderer's convention for ``I`` (VIEW_TARGETS), which sets the one
     line computing the view direction."""
     if view not in VIEW_LINES:
         raise ValueError(f"unknown view target {view!r}: expected one of {', '.join(VIEW_TARGETS)}")
     traced = trace_closures(stack, model)
-    stack, t = traced.stack, traced.tracer
-    outputs = [x for c in traced.closures for x in (*c.weight, *c.args.values())]
+    all_params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
+    if staged:
+        from .staging import stage
+
+        st = stage(traced.stack, model, live, budget)
+        t, closures, frame, table = st.tracer, st.closures, st.frame, st.table
+    else:
+        st = None
+        t, closures, frame, table = traced.tracer, traced.closures, "shading", None
+    stack = traced.stack
+    outputs = [x for c in closures for x in (*c.weight, *c.args.values())]
     p = _Printer(t)
+    if table is not None:
+        p.table_shape = table.shape
     sections = {"setup": "incident direction", "lobes": "lobes (energies, roughness, axes)",
                 "closures": "closure weights: energy x the lobe kind's normaliser (1 / GD for GGX)",
-                "base": f"base: {stack.base.type} and the adding of the stack above it"}
+                "base": f"base: {stack.base.type} and the adding of the stack above it",
+                "table": "the material table at this view (baked lobes)",
+                "live": "the model's part that reads linked parameters"}
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = (f"coat {i}: interface from above, refraction into it"
                                 + (", absorption" if c.has_absorption else ""))
     p.emit(outputs, sections)
+    uses_tables = any(e.op == "lut" for e in t.live_nodes(outputs))
 
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
-    params = [f"    float {_identifier(k)} = {_literal(float(t.defaults[k]))}," for k in sorted(t.params)]
+    params = [f"    float {_identifier(k)} = {_literal(v)}," for k, v in sorted(all_params.items())]
     lut_path = str(Path(lut_dir) if lut_dir else luts.DATA_DIR)
-    body = [
-        "    // local shading frame: z = N, x = the shading tangent (default: radial about world z)",
-        "    vector Tn = Tangent - dot(Tangent, Normal) * Normal;",
+    if frame == "view":
+        frame_lines = [
+            "    // local shading frame: z = N, x = the view's azimuth (an isotropic stack's table is",
+            "    // baked in that frame); at normal incidence the shading tangent",
+            VIEW_LINES[view],
+            "    vector Tn = V - dot(V, Normal) * Normal;",
+            "    if (length(Tn) < 1e-6) Tn = Tangent - dot(Tangent, Normal) * Normal;",
+        ]
+    else:
+        frame_lines = [
+            "    // local shading frame: z = N, x = the shading tangent (default: radial about world z)",
+            "    vector Tn = Tangent - dot(Tangent, Normal) * Normal;",
+        ]
+    body = frame_lines + [
         "    if (length(Tn) < 1e-8) Tn = vector(-P[1], P[0], 0.0) - dot(vector(-P[1], P[0], 0.0), Normal) * Normal;",
         "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(0.0, 1.0, 0.0));",
         "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(1.0, 0.0, 0.0));",
         "    Tn = normalize(Tn);",
         "    vector Bn = cross(Normal, Tn);",
-        VIEW_LINES[view],
+        *([] if frame == "view" else [VIEW_LINES[view]]),
         "    float wi_x = dot(V, Tn);",
         "    float wi_y = dot(V, Bn);",
         "    float wi_z = dot(V, Normal);",
-        *_blocked(p.lines),
-        "    BSDF = 0;",
     ]
-    for c in traced.closures:
+    if table is not None and any(e.op == "mtab" for e in t.nodes):
+        values = ", ".join(_float32_literal(x) for x in table.reshape(-1))
+        body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
+                 + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
+                 f"    float MT[{table.size}] = {{{values}}};"]
+    body += [*_blocked(p.lines), "    BSDF = 0;"]
+    for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
         closure = c.kind.osl({name: p.ref(x) for name, x in c.args.items()})
         body += [
-            f"    // {c.label}" + (" and everything it sends back up" if c.kind.name == "reflection" else ""),
+            f"    // {c.label}",
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
             f"        BSDF += color({r}, {g}, {b}) * {closure};",
         ]
-    header = (OSL_DIR / LUT_HEADER).read_text()
+    header = (OSL_DIR / LUT_HEADER).read_text() if uses_tables else ""
     desc = stack.to_json(indent=None)
-    return "\n".join([
-        f"// Generated by Lamella (model {traced.model}) -- do not edit; regenerate with `lamella export-osl`.",
+    how = (f"staged: {len(closures)} closures for {st.lobes_all} lobes, live: {', '.join(st.live) or 'nothing'}"
+           if st is not None else "fully traced")
+    source = "\n".join([
+        f"// Generated by Lamella (model {traced.model}; {how}) -- do not edit; regenerate with `lamella export-osl`.",
         f"// stack: {desc}",
         "#include \"stdosl.h\"",
         "",
-        header.rstrip(),
-        "",
+        *([header.rstrip(), ""] if header else []),
         f"shader {shader}(",
         *params,
         "    normal Normal = N,",
         "    vector Tangent = vector(0.0, 0.0, 0.0),",
-        f"    string lut_dir = \"{lut_path}\",",
+        *([f"    string lut_dir = \"{lut_path}\","] if uses_tables else []),
         "    output closure color BSDF = 0)",
         "{",
         *body,
         "}",
         "",
     ])
+    return OslShader(source, all_params, tuple(st.live) if st is not None else tuple(sorted(all_params)),
+                     traced.model, st, uses_tables)
+
+
+def _float32_literal(x) -> str:
+    """The shortest literal that reads back as the float32 ``x``."""
+    import numpy as np
+
+    r = np.format_float_positional(np.float32(x), unique=True, trim="0")
+    return r if not r.endswith(".") else r + "0"

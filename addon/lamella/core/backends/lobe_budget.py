@@ -1,0 +1,261 @@
+"""The lobe budget: a material's baked lobes merged into at most K closures (docs/staging.md).
+
+Closures, not arithmetic, set the run time of a staged shader, and stacks with media emit many
+lobes (27 for eight coats with media) that mostly share a centre (the mirror direction, or the
+view for back-scatter) and differ in roughness. At compile time, with every lobe tabulated over
+the view grid, lobes of one kind are merged:
+
+- **which**: greedily, the pair whose roughness tensors are closest in log space, weighted by the
+  smaller lobe's energy, summed over the grid (a merge costs nothing where one lobe is dark);
+  mirror lobes (zero roughness) merge only with each other, which changes nothing;
+- **how**: the merged lobe carries the sum of the energies, and its roughness tensor is the
+  energy-weighted power mean of the members' (``RULES``: p = 1 the mean of alpha, p = 2 of alpha
+  squared, p = 0 the geometric mean), measured against the full lobe sum in ``bench/staging.md``;
+- **how many**: ``"all"`` keeps every lobe, an integer K keeps at most K closures, ``"auto"`` the
+  fewest closures whose BRDF stays within ``AUTO_TOLERANCE`` (relative L1 against every lobe, at
+  every grid view up to ``AUTO_MAX_DEGREES``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import lobe_kinds
+from .numpy_ops import NumpyOps
+
+BUDGETS = ("auto", "all", 1, 2, 3, 4, 5, 6, 7, 8)
+AUTO_TOLERANCE = 0.01  # relative L1 of the merged BRDF against every lobe, at each view
+AUTO_MAX_DEGREES = 75.0
+RULES = {"alpha": 1.0, "alpha2": 2.0, "geometric": 0.0}
+DEFAULT_RULE = "alpha"
+MERGEABLE = ("reflection", "backscatter", "diffuse")
+DELTA_ALPHA = 1e-3  # a lobe this sharp everywhere is a mirror
+LOG_FLOOR = 1e-4
+
+
+def parse(budget):
+    """A budget as given by the panel or a stack's render options: "auto", "all", or 1 to 8
+    (an int or its text)."""
+    if isinstance(budget, str) and budget.strip().isdigit():
+        budget = int(budget)
+    if isinstance(budget, bool) or budget not in BUDGETS:
+        raise ValueError(f"lobe budget must be 'auto', 'all' or a whole number from 1 to 8, got {budget!r}")
+    return budget
+
+
+@dataclass
+class LobeSamples:
+    """One lobe of the model on the view grid (G views): ``energy`` (G, 3), its closure
+    arguments (each (G,)), its closure weight (G, 3) where it is a lobe of the model itself
+    (merged lobes compute theirs), and the indices of the model's lobes it stands for."""
+
+    kind: lobe_kinds.LobeKind
+    energy: np.ndarray
+    args: dict
+    label: str
+    lobe: object
+    members: list = field(default_factory=list)
+    weight: np.ndarray | None = None
+    index: int = -1
+
+    @classmethod
+    def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
+        vals = on_grid([*closure.lobe.weight, *closure.weight, *closure.args.values()])
+        energy = np.stack(vals[0:3], -1)
+        weight = np.stack(vals[3:6], -1)
+        args = dict(zip(closure.args, vals[6:]))
+        s = cls(closure.kind, energy, args, closure.label, closure.lobe, weight=weight, index=index)
+        s.members = [s]
+        return s
+
+    def closure_weight(self, dirs) -> list:
+        """The closure's weight (three arrays over the grid): its energy times the kind's
+        normaliser at its arguments."""
+        if self.weight is None:
+            ops = NumpyOps(np.float64)
+            wi = tuple(dirs[:, k] for k in range(3))
+            with np.errstate(all="ignore"):
+                s = np.broadcast_to(self.kind.scale_of_args(ops, self.args, wi), (dirs.shape[0],))
+            self.weight = self.energy * s[:, None]
+        return [self.weight[:, ch] for ch in range(3)]
+
+    @property
+    def is_delta(self) -> bool:
+        if not self.kind.rough:
+            return False
+        a = [self.args[k] for k in ("ax", "ay", "alpha") if k in self.args]
+        return all(np.all(np.abs(x) < DELTA_ALPHA) for x in a)
+
+
+# ---------------------------------------------------------------- roughness tensors
+def _tensor(s: LobeSamples) -> np.ndarray:
+    """(G, 2, 2) roughness tensors R diag(ax, ay) R^T of a GGX lobe (isotropic: alpha I)."""
+    a = s.args
+    if "ax" in a:
+        ax, ay, c, sn = (np.broadcast_to(a[k], s.energy.shape[:1]) for k in ("ax", "ay", "cos", "sin"))
+    else:
+        ax = ay = np.broadcast_to(a["alpha"], s.energy.shape[:1])
+        c, sn = np.ones_like(ax), np.zeros_like(ax)
+    r = np.stack([np.stack([c, -sn], -1), np.stack([sn, c], -1)], -2)
+    d = np.zeros(r.shape)
+    d[:, 0, 0], d[:, 1, 1] = ax, ay
+    return r @ d @ np.swapaxes(r, -1, -2)
+
+
+def _tensor_fn(t: np.ndarray, fn) -> np.ndarray:
+    w, v = np.linalg.eigh(t)
+    return v @ (fn(np.maximum(w, 0.0))[..., None] * np.swapaxes(v, -1, -2))
+
+
+def _power_mean(tensors, weights, p: float) -> np.ndarray:
+    """Energy-weighted power mean of roughness tensors: (sum w A^p / sum w)^(1/p), the
+    log-Euclidean mean at p = 0."""
+    total = np.maximum(sum(weights), 1e-30)[:, None, None]
+    if p == 0.0:
+        acc = sum(w[:, None, None] * _tensor_fn(t, lambda x: np.log(np.maximum(x, LOG_FLOOR)))
+                  for t, w in zip(tensors, weights))
+        w, v = np.linalg.eigh(acc / total)  # the exponential of a symmetric matrix (any sign)
+        return v @ (np.exp(w)[..., None] * np.swapaxes(v, -1, -2))
+    acc = sum(w[:, None, None] * _tensor_fn(t, lambda x: x ** p) for t, w in zip(tensors, weights))
+    return _tensor_fn(acc / total, lambda x: x ** (1.0 / p))
+
+
+def _args_of_tensor(kind, t: np.ndarray) -> dict:
+    """The closure arguments of a merged lobe of ``kind`` from its roughness tensor."""
+    w, v = np.linalg.eigh(t)  # ascending eigenvalues
+    if kind.name == "backscatter":
+        return {"alpha": np.sqrt(np.maximum(w[:, 0], 0.0) * np.maximum(w[:, 1], 0.0))}
+    ax, ay = np.maximum(w[:, 1], 0.0), np.maximum(w[:, 0], 0.0)
+    c, s = v[:, 0, 1], v[:, 1, 1]  # the eigenvector of the larger eigenvalue
+    flip = c < 0.0
+    c, s = np.where(flip, -c, c), np.where(flip, -s, s)
+    iso = np.abs(ax - ay) <= 1e-9 * np.maximum(ax, 1e-30)
+    return {"ax": ax, "ay": np.where(iso, ax, ay), "cos": np.where(iso, 1.0, c), "sin": np.where(iso, 0.0, s)}
+
+
+def _log_distance(a: LobeSamples, b: LobeSamples) -> np.ndarray:
+    la = _tensor_fn(_tensor(a), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
+    lb = _tensor_fn(_tensor(b), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
+    return np.sqrt(((la - lb) ** 2).sum((-1, -2)))
+
+
+def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
+    """One lobe standing for ``group`` (lobes of one kind): the energies summed, the roughness
+    tensor their energy-weighted power mean (``RULES``)."""
+    if len(group) == 1:
+        return group[0]
+    kind = group[0].kind
+    energy = sum(g.energy for g in group)
+    members = [m for g in group for m in g.members]
+    label = f"lobes {', '.join(str(m.index) for m in members)} merged ({kind.name})"
+    if not kind.rough:
+        args = dict(group[0].args)
+    else:
+        weights = [g.energy.mean(-1) for g in group]
+        args = _args_of_tensor(kind, _power_mean([_tensor(g) for g in group], weights, RULES[rule]))
+    return LobeSamples(kind, energy, args, label, group[0].lobe, members)
+
+
+# ---------------------------------------------------------------- which lobes merge
+def _can_merge(a: LobeSamples, b: LobeSamples) -> bool:
+    return a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta
+
+
+def _cost(a: LobeSamples, b: LobeSamples) -> float:
+    if a.is_delta or not a.kind.rough:
+        return 0.0
+    w = np.minimum(a.energy.mean(-1), b.energy.mean(-1))
+    return float((w * _log_distance(a, b) ** 2).sum())
+
+
+def merge_order(samples: list[LobeSamples], rule: str = DEFAULT_RULE) -> list[list[LobeSamples]]:
+    """The partitions of ``samples`` from every lobe alone down to the fewest closures merging
+    allows: element k has len(samples) - k groups, each merged greedily from the previous."""
+    current = [[s] for s in samples]
+    merged = list(samples)
+    out = [list(merged)]
+    while True:
+        best = None
+        for i in range(len(merged)):
+            for j in range(i + 1, len(merged)):
+                if _can_merge(merged[i], merged[j]):
+                    c = _cost(merged[i], merged[j])
+                    if best is None or c < best[0]:
+                        best = (c, i, j)
+        if best is None:
+            return out
+        _, i, j = best
+        current[i] = current[i] + current[j]
+        del current[j]
+        merged[i] = combine(current[i], rule)
+        del merged[j]
+        out.append(list(merged))
+
+
+def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], dirs: np.ndarray,
+               max_degrees: float = AUTO_MAX_DEGREES) -> float:
+    """The largest relative L1 (RGB averaged) of the merged lobes' BRDF against every lobe's, over
+    the upper hemisphere (``suite.wo_grid``), at the grid views up to ``max_degrees``. Mirror lobes
+    are left out of both (they merge only with each other, exactly)."""
+    from ..suite import wo_grid
+
+    rows = np.nonzero(dirs[:, 2] >= math.cos(math.radians(max_degrees)) - 1e-9)[0]
+    worst = 0.0
+    ops = NumpyOps(np.float64)
+    for r in rows:
+        wi = dirs[r]
+        wo, _ = wo_grid(wi, 12, 16)
+        wi_t = tuple(np.full(len(wo), wi[k]) for k in range(3))
+        wo_t = tuple(wo[:, k] for k in range(3))
+
+        def brdf(lobes):
+            f = np.zeros((len(wo), 3))
+            for s in lobes:
+                if s.is_delta:
+                    continue
+                a = {k: np.asarray(v)[r] for k, v in s.args.items()}
+                with np.errstate(all="ignore"):
+                    cos = np.broadcast_to(s.kind.cos_of_args(ops, a, wi_t, wo_t), (len(wo),))
+                w = np.stack(s.closure_weight(dirs), -1)[r]
+                f += cos[:, None] * w[None, :]
+            return f
+
+        ref = brdf(full)
+        denom = np.abs(ref).sum(0)
+        if np.all(denom <= 1e-12):
+            continue
+        err = np.abs(brdf(merged) - ref).sum(0) / np.maximum(denom, 1e-12)
+        worst = max(worst, float(err[denom > 1e-12].mean()))
+    return worst
+
+
+@dataclass
+class Group:
+    """A closure of the staged shader: the merged lobe and the model's lobes it stands for."""
+
+    lobe: LobeSamples
+    members: list
+
+
+def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
+          rule: str = DEFAULT_RULE) -> list[Group]:
+    """The closures for ``samples`` (the baked lobes) under ``budget`` (``parse``); ``n_live``
+    closures of live lobes come on top and count against an integer budget."""
+    for k, s in enumerate(samples):
+        if s.index < 0:
+            s.index = k
+    if budget == "all" or len(samples) <= 1:
+        return [Group(s, [s]) for s in samples]
+    order = merge_order(samples, rule)
+    if budget == "auto":
+        pick = order[0]
+        for level in order[1:]:
+            if brdf_error(samples, level, dirs) > AUTO_TOLERANCE:
+                break
+            pick = level
+    else:
+        want = max(budget - n_live, 1)
+        pick = next((level for level in order if len(level) <= want), order[-1])
+    return [Group(s, s.members) for s in pick]
