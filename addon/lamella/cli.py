@@ -116,6 +116,10 @@ def cmd_bench(a) -> int:
         from .bench import recompile
 
         print(recompile.run(BENCH_DIR).read_text())
+    elif a.what == "staging":
+        from .bench import staging
+
+        print(staging.run(BENCH_DIR).read_text())
     elif a.what == "nodes":
         from .bench import node_cost
 
@@ -304,7 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "nodes", "eevee-anisotropy",
+    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "eevee-anisotropy",
                                        "eevee-closures", "shells",
                                        "trapping"])
     p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")

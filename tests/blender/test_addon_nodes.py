@@ -64,6 +64,10 @@ def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):
     tex = mat.node_tree.nodes.new("ShaderNodeTexNoise")
     mat.node_tree.links.new(tex.outputs["Fac"], group.inputs["coat0_ior"])
     d = suite.load("tinted_varnish").to_dict()
+    api.apply_stack(mat, d)
+    assert tree[material_nodes.STRUCTURE_KEY] != key, "linking a texture makes its parameter live: a structure edit"
+    assert mat.lamella.live_params == "coat0_ior"
+    key = tree[material_nodes.STRUCTURE_KEY]
     d["layers"][0]["roughness"] = 0.2
     api.apply_stack(mat, d)
     assert group.node_tree is tree and tree[material_nodes.STRUCTURE_KEY] == key, "a value edit keeps the group"

@@ -16,6 +16,7 @@ from lamella.core import Stack, suite
 from lamella.core.backends import node_graph
 from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
 from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.backends.staging import StagedOps
 from lamella.core.lobe_kinds import blender_anisotropy
 
 CASES = suite.names()
@@ -30,7 +31,8 @@ def _directions(grazing=True):
 
 def _compare(plan, values):
     tracer, exprs, refs = plan.traced
-    want = tracer.evaluate(exprs, NumpyOps(np.float32), values)
+    ops = StagedOps(plan.staged.table, np.float32) if plan.staged is not None else NumpyOps(np.float32)
+    want = tracer.evaluate(exprs, ops, values)
     got = evaluate_plan(plan, values, np.float32)
     shape = values["wi_z"].shape
     pairs = [(np.broadcast_to(np.asarray(w, np.float64), shape), np.broadcast_to(np.asarray(got(r), np.float64), shape))
@@ -38,9 +40,12 @@ def _compare(plan, values):
     return pairs
 
 
+@pytest.mark.parametrize("staged", [True, False], ids=["staged", "traced"])
 @pytest.mark.parametrize("case", CASES)
-def test_plan_equals_the_traced_model(case):
-    plan = emit_plan(suite.load(case))
+def test_plan_equals_the_traced_model(case, staged):
+    """The plan of the staged shader (table reads: Closest texels blended by Mix nodes) and of the
+    whole traced model."""
+    plan = emit_plan(suite.load(case), staged=staged)
     values = dict(_directions(grazing=False), **plan.params)
     pairs = iter(_compare(plan, values))
     lobes = []
@@ -58,9 +63,10 @@ def test_plan_equals_the_traced_model(case):
             assert err[live].max(initial=0.0) < 1e-4, f"{b.label}: argument"
 
 
+@pytest.mark.parametrize("staged", [True, False], ids=["staged", "traced"])
 @pytest.mark.parametrize("case", CASES)
-def test_plan_is_finite_at_every_angle_in_float32(case):
-    plan = emit_plan(suite.load(case))
+def test_plan_is_finite_at_every_angle_in_float32(case, staged):
+    plan = emit_plan(suite.load(case), staged=staged)
     values = dict(_directions(grazing=True), **plan.params)
     value_of = evaluate_plan(plan, values, np.float32)
     for o in plan.outputs:
@@ -103,14 +109,14 @@ def test_a_value_edit_keeps_every_nested_group_and_a_structure_edit_keeps_the_re
     """Parameters are group inputs, so new values make the same nested groups; a changed coat
     rebuilds its own sections and leaves the sections before it alone."""
     d = suite.example("four_coats").to_dict()
-    base = {s.digest for s in partition(emit_plan(Stack.from_dict(d)))}
+    base = {s.digest for s in partition(emit_plan(Stack.from_dict(d), staged=False))}
     d2 = suite.example("four_coats").to_dict()
     d2["layers"][0]["ior"] = 1.7
     d2["layers"][1]["ior"] = 1.33
-    assert {s.digest for s in partition(emit_plan(Stack.from_dict(d2)))} == base
+    assert {s.digest for s in partition(emit_plan(Stack.from_dict(d2), staged=False))} == base
     d3 = suite.example("four_coats").to_dict()
     d3["layers"][-1]["sigma_a"] = [0.5, 0.2, 0.1] if "sigma_a" not in d3["layers"][-1] else [0.0, 0.0, 0.0]
-    changed = {s.digest for s in partition(emit_plan(Stack.from_dict(d3)))}
+    changed = {s.digest for s in partition(emit_plan(Stack.from_dict(d3), staged=False))}
     assert changed != base and len(changed & base) > 0
 
 
@@ -131,11 +137,14 @@ def test_table_reads_hit_texel_centres():
 
 
 def test_live_values_say_which_stacks_fit_cycles_svm():
-    """Measured in Cycles 5.0 (bench/nodes.md): every suite stack and four coats render without
-    OSL; four coats with a medium run out of SVM stack. The estimate separates them."""
+    """Measured in Cycles 5.0 (bench/nodes.md): traced whole, every suite stack and four coats
+    render without OSL; four coats with a medium run out of SVM stack. The estimate separates
+    them. Staged, every one of them fits, eight coats with media too."""
     from lamella.bench.recompile import _stack
     from lamella.core.backends.node_graph import fits_svm
 
-    assert all(fits_svm(emit_plan(suite.load(n))) for n in CASES)
-    assert fits_svm(emit_plan(_stack("4 coats", "four_coats")))
-    assert not fits_svm(emit_plan(_stack("4 coats + medium", None)))
+    assert all(fits_svm(emit_plan(suite.load(n), staged=False)) for n in CASES)
+    assert fits_svm(emit_plan(_stack("4 coats", "four_coats"), staged=False))
+    assert not fits_svm(emit_plan(_stack("4 coats + medium", None), staged=False))
+    for label in ("4 coats + medium", "8 coats + media"):
+        assert fits_svm(emit_plan(_stack(label, None)))

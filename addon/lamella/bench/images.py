@@ -25,23 +25,24 @@ SPP = 64
 ENGINES = ("cycles-osl", "principled", "eevee", "eevee-principled")
 
 
-def render_case(name: str, engine: str, spp: int = SPP, res: int = RES):
+def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget="auto"):
     """(image, seconds). EEVEE renders twice and times the second render: its first compiles the
     material's shader (``bench/nodes.md`` has that time), the frame time is the second's."""
     from ..blender.render import assign_material, build_scene, render_scene, render_stack
 
     if not engine.startswith("eevee"):
-        return render_stack(suite.load(name), "sphere-env", res=res, spp=spp, engine=engine, seed=0)
+        return render_stack(suite.load(name), "sphere-env", res=res, spp=spp, engine=engine, seed=0, budget=budget)
     sc, sphere = build_scene("sphere-env", res, spp, seed=0)
-    assign_material(sphere, suite.load(name), engine)
+    assign_material(sphere, suite.load(name), engine, budget=budget)
     render_scene(sc)
     return render_scene(sc)
 
 
-def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR):
-    """(figures dict, rendered image, reference image) for one case and engine."""
+def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR, budget="auto"):
+    """(figures dict, rendered image, reference image) for one case and engine, the shader's lobes
+    merged to ``budget``."""
     ref = read_rgba(Path(ref_dir) / f"{name}.exr")
-    img, seconds = render_case(name, engine, spp, ref.shape[0])
+    img, seconds = render_case(name, engine, spp, ref.shape[0], budget)
     figures = image_errors(img, ref, sphere_mask(ref))
     figures.update({"case": name, "engine": engine, "spp": spp, "seconds": round(seconds, 2)})
     return figures, img, ref

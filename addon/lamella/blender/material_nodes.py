@@ -78,15 +78,32 @@ def shader_text(mat, script):
     return text
 
 
-def install_shader(mat, source: str, oso_path, lut_dir: str) -> None:
-    """Put the compiled shader into ``mat``: the Script node runs it, its parameter sockets take the
-    shader's defaults (the stack's values: existing sockets keep their links but get the new
-    value), its output and tangent are linked."""
+NOT_PARAMS = ("Normal", "Tangent", "lut_dir")  # sockets of the Script node and group that are no model parameter
+
+
+def linked_params(mat) -> tuple:
+    """The model parameters whose sockets are linked in ``mat`` (on the Script node or the node
+    group): a staged shader reads them live and bakes every other value."""
+    nt = mat.node_tree
+    if nt is None:
+        return ()
+    linked = set()
+    for name in (SCRIPT, GROUP):
+        node = nt.nodes.get(name)
+        if node is not None:
+            linked |= {s.name for s in node.inputs if s.is_linked and s.name not in NOT_PARAMS}
+    return tuple(sorted(linked))
+
+
+def install_shader(mat, shader, oso_path, lut_dir: str) -> None:
+    """Put the compiled shader (``OslShader``) into ``mat``: the Script node runs it, its parameter
+    sockets take the shader's values (the stack's values: existing sockets keep their links but
+    get the new value), its output and tangent are linked."""
     from .osl_compile import assign_compiled
 
     script, output, tangent = ensure_nodes(mat)
     text = shader_text(mat, script)
-    assign_compiled(script, text, source, oso_path)
+    assign_compiled(script, text, shader.source, oso_path, shader.params)
     if "lut_dir" in script.inputs:
         script.inputs["lut_dir"].default_value = lut_dir
     nt = mat.node_tree
@@ -143,38 +160,46 @@ def group_needed(scene) -> bool:
     return engine.startswith("BLENDER_EEVEE") or (engine == "CYCLES" and not osl_usable(scene))
 
 
-def install_group(mat, stack, model: str, source: str, build: bool = True) -> bool | None:
-    """Give ``mat`` the node group of ``stack``: rebuilt only when the structure changed (the
-    structure key of the OSL source, which strips parameter values), and then only the nested
-    groups whose content changed; the parameter values go to the group node's sockets, so links
-    into them stay. A group another material shares is copied first (copies stay independent).
-    With ``build`` False a structure change leaves the group as it is (the caller builds it
-    later). Returns whether the group was rebuilt, None when it was left out of date."""
+def table_image_name(mat) -> str:
+    return f".lamella_table {mat.name}"
+
+
+def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | None:
+    """Give ``mat`` the node group of ``stack``, staged like ``shader`` (an ``OslShader``, or the
+    pair (live parameters, lobe budget)): rebuilt only when the structure changed (the staged
+    graph's structure key), and then only the nested groups whose content changed; a value edit
+    only rewrites the material table's image and the sockets' values, so links into them stay. A
+    group another material shares is copied first (copies stay independent). With ``build``
+    False the group is left as it is (the caller builds it later). Returns whether the group was
+    rebuilt, None when it was left out of date.""" 
     import bpy
 
     from ..core.backends.node_graph import emit_plan, live_values
     from . import node_group
-    from .osl_compile import source_hash, source_params
 
     node, out = ensure_group_nodes(mat)
     nt = mat.node_tree
-    key = source_hash(source)
+    live, budget = (shader.live, mat.lamella.lobe_budget) if hasattr(shader, "live") else shader
     tree = node.node_tree
-    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
-    if rebuilt and not build:
-        return None
     if tree is not None and tree.users > 1:  # shared with a copied material: make it this one's own
         tree = tree.copy()
         node.node_tree = tree
+    if not build:  # staged, even a value edit changes the group's table: all of it waits
+        return None
+    plan = emit_plan(stack, model, live=live, budget=budget, image=table_image_name(mat))
+    key = plan.staged.structure_key() if plan.staged is not None else ""
+    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
     if rebuilt:
         if tree is None:
             tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
-        plan = emit_plan(stack, model)
         node_group.build_group(plan, tree.name, tree)
         tree[STRUCTURE_KEY] = key
         mat.lamella.node_live_values = live_values(plan)
         node.node_tree = tree
-    for name, value in source_params(source).items():
+    else:
+        for image, pixels in plan.images.items():
+            node_group.material_table_image(image, pixels)
+    for name, value in plan.params.items():
         sock = node.inputs.get(name)
         if sock is not None:
             sock.default_value = value

@@ -56,10 +56,38 @@ def _socket(sockets, identifier):
     raise KeyError(identifier)
 
 
+def material_table_image(name: str, pixels):
+    """The image ``name`` holding a staged material's table (RGBA float, rows bottom first),
+    created or updated in place and packed into the .blend, so the file renders elsewhere. Raw
+    data: no colour management, full float precision."""
+    h, w = pixels.shape[:2]
+    img = bpy.data.images.get(name)
+    if img is not None and (tuple(img.size) != (w, h) or not img.is_float):
+        bpy.data.images.remove(img)
+        img = None
+    if img is None:
+        img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True, is_data=True)
+    img.colorspace_settings.is_data = True
+    img.alpha_mode = "CHANNEL_PACKED"
+    if hasattr(img, "use_half_precision"):
+        img.use_half_precision = False
+    img.pixels.foreach_set(pixels.astype("float32").reshape(-1))
+    img.update()
+    img.pack()
+    return img
+
+
+def _image(name: str):
+    img = bpy.data.images.get(name)
+    if img is not None and name.startswith(".lamella_table"):
+        return img
+    return table_image(name)
+
+
 def _new_node(nt, bl_idname, props, location, label=""):
     n = nt.nodes.new(bl_idname)
     for k, v in props.items():
-        setattr(n, k, table_image(v) if k == "image" else v)
+        setattr(n, k, _image(v) if k == "image" else v)
     n.location = location
     if label:
         n.label = label
@@ -109,14 +137,14 @@ def _chunk_group(plan: Plan, chunk):
         for ident, v in n.inputs.items():
             sock = _socket(node.inputs, ident)
             if isinstance(v, Out):
-                src = (made[v.node].outputs[_out_index(plan, v)] if v.node in made
+                src = (_socket(made[v.node].outputs, v.socket) if v.node in made
                        else gin.outputs[in_index[v]])
                 nt.links.new(src, sock)
             else:
                 sock.default_value = float(v)
         _constant_inputs(node)
     for k, v in enumerate(chunk.outputs):
-        nt.links.new(made[v.node].outputs[_out_index(plan, v)], gout.inputs[k])
+        nt.links.new(_socket(made[v.node].outputs, v.socket), gout.inputs[k])
     return tree
 
 
@@ -168,10 +196,6 @@ def _section_group(plan: Plan, section):
     return tree
 
 
-def _out_index(plan: Plan, v: Out) -> int:
-    return plan.nodes[v.node].outputs.index(v.socket)
-
-
 # ---------------------------------------------------------------- the group
 class _Vec:
     """Vector math in the group under construction."""
@@ -218,18 +242,22 @@ class _Vec:
         return self.node("ShaderNodeVectorMath", {"operation": "SCALE"}, {"Vector": v, "Scale": s})
 
 
-def _frame(g: _Vec, gin, tangent_input: bool):
+def _frame(g: _Vec, gin, tangent_input: bool, view_frame: bool = False):
     """(N, T, B, V, wi) of the shading point: the Normal input where linked (else the shading
     normal), the Tangent input made orthogonal to N, falling back like the OSL shader on the
-    tangent radial about world z and then on N x y, N x x; V the unit vector toward the viewer."""
+    tangent radial about world z and then on N x y, N x x; V the unit vector toward the viewer.
+    With ``view_frame`` (a staged isotropic stack) T is the view's azimuth, V made orthogonal to
+    N, where the view is not along the normal."""
     geo = g.node("ShaderNodeNewGeometry", out="Normal")
     geo_node = geo.node
     n_in = gin.outputs["Normal"]
     n = g.vmath("NORMALIZE", g.pick(g.nonzero(n_in), n_in, geo))
+    v = g.vmath("NORMALIZE", geo_node.outputs["Incoming"])
     px = g.node("ShaderNodeSeparateXYZ", inputs={"Vector": geo_node.outputs["Position"]}, out="X")
     neg_y = g.math("MULTIPLY", px.node.outputs["Y"], -1.0)
     radial = g.node("ShaderNodeCombineXYZ", inputs={"X": neg_y, "Y": px, "Z": 0.0})
-    candidates = [g.project(gin.outputs["Tangent"], n)] if tangent_input else []
+    candidates = [g.project(v, n)] if view_frame else []
+    candidates += [g.project(gin.outputs["Tangent"], n)] if tangent_input else []
     candidates += [g.project(radial, n), g.vmath("CROSS_PRODUCT", n, (0.0, 1.0, 0.0)),
                    g.vmath("CROSS_PRODUCT", n, (1.0, 0.0, 0.0))]
     t = candidates[-1]
@@ -237,7 +265,6 @@ def _frame(g: _Vec, gin, tangent_input: bool):
         t = g.pick(g.nonzero(c), c, t)
     t = g.vmath("NORMALIZE", t)
     b = g.vmath("CROSS_PRODUCT", n, t)
-    v = g.vmath("NORMALIZE", geo_node.outputs["Incoming"])
     wi = [g.vmath("DOT_PRODUCT", v, axis, out="Value") for axis in (t, b, n)]
     return n, t, b, v, wi
 
@@ -282,7 +309,9 @@ def build_group(plan: Plan, name: str, tree=None):
     gin = nt.nodes.new("NodeGroupInput")
     gin.location = (-3 * X_STEP, 0.0)
     g.x = -X_STEP
-    frame = _frame(g, gin, tangent_input=True)
+    for image, pixels in plan.images.items():
+        material_table_image(image, pixels)
+    frame = _frame(g, gin, tangent_input=True, view_frame=plan.frame == "view")
     wi = frame[4]
     leaf_src = {}
     for k, leaf in enumerate(plan.leaves):

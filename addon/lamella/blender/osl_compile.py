@@ -38,24 +38,10 @@ def cache_dir() -> Path:
     return d
 
 
-# A shader parameter's declaration as the OSL printer writes it, and the stack comment: two sources
-# that differ only there are the same shader with other parameter values.
-_PARAM = re.compile(r"^    (float|int) (\w+) = ([^,\n]+),$", re.M)
-_STACK_LINE = re.compile(r"^// stack: .*$", re.M)
-
-
 def source_hash(source: str) -> str:
-    """The cache key of ``source``: its structure, not its parameter values. Every layer value is
-    a shader parameter whose socket carries the value, so a value edit reuses the compiled
-    shader of the same structure (``assign_compiled`` sets the sockets from the source)."""
-    structure = _PARAM.sub(r"    \1 \2 = 0,", _STACK_LINE.sub("", source))
-    return hashlib.sha256(structure.encode()).hexdigest()
-
-
-def source_params(source: str) -> dict[str, float | int]:
-    """The parameter defaults ``source`` declares (the stack's values)."""
-    return {m.group(2): (int(m.group(3)) if m.group(1) == "int" else float(m.group(3)))
-            for m in _PARAM.finditer(source)}
+    """The cache key of ``source``: the text itself. A staged shader carries its material table,
+    so a value edit is a new source; a shader of the same stack and values compiles once."""
+    return hashlib.sha256(source.encode()).hexdigest()
 
 
 def capture_stderr(fn, fds=(2,)):
@@ -119,16 +105,17 @@ def compile_source(source: str, name: str = "shader") -> Path:
     return oso
 
 
-def assign_script(node, text, source: str, name: str = "shader") -> None:
+def assign_script(node, text, source: str, name: str = "shader", values: dict | None = None) -> None:
     """Make Script ``node`` run ``source``: INTERNAL mode on ``text`` (which receives the source),
-    bytecode from the cache, one socket per shader parameter (Cycles' own socket rules)."""
-    assign_compiled(node, text, source, compile_source(source, name))
+    bytecode from the cache, one socket per shader parameter (Cycles' own socket rules), each
+    set to its value in ``values`` (by default the parameter's default)."""
+    assign_compiled(node, text, source, compile_source(source, name), values)
 
 
-def assign_compiled(node, text, source: str, oso: Path) -> None:
-    """``assign_script`` for a shader already compiled to ``oso`` (possibly from a source of the
-    same structure with other parameter values). Every input socket takes the default ``source``
-    declares: a socket kept from an earlier shader (and its links) gets the new value."""
+def assign_compiled(node, text, source: str, oso: Path, values: dict | None = None) -> None:
+    """``assign_script`` for a shader already compiled to ``oso``. Every input socket named in
+    ``values`` takes that value: a socket kept from an earlier shader (and its links) gets the new
+    value; the others take the shader's defaults."""
     import cycles.osl
 
     text.clear()
@@ -141,13 +128,13 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
     try:
         import oslquery
     except ImportError:  # Blender 4.2 to 4.4: Cycles makes the sockets itself, in C++
-        _update_sockets_in_cycles(node, source, oso)
+        _update_sockets_in_cycles(node, values or {}, oso)
         return
     query = oslquery.OSLQuery(str(oso))
     if not query:
         raise OSLCompileError(f"OSL query failed to read the compiled shader {oso}")
     used = set()
-    values = source_params(source)
+    values = values or {}
     for param in query.parameters:
         sock = cycles.osl.shader_param_ensure(node, param)
         if sock is not None:
@@ -164,7 +151,7 @@ def assign_compiled(node, text, source: str, oso: Path) -> None:
                 sockets.remove(sockets[identifier])
 
 
-def _update_sockets_in_cycles(node, source: str, oso: Path) -> None:
+def _update_sockets_in_cycles(node, values: dict, oso: Path) -> None:
     """Blender before 4.5 has no ``oslquery`` module: Cycles' ``osl_update_node`` reads the
     shader's parameters and makes (and removes) the sockets; then every input takes the default
     ``source`` declares."""
@@ -173,7 +160,6 @@ def _update_sockets_in_cycles(node, source: str, oso: Path) -> None:
 
     if not _cycles.osl_update_node(bpy.data.as_pointer(), node.id_data.as_pointer(), node.as_pointer(), str(oso)):
         raise OSLCompileError(f"Cycles failed to read the compiled shader {oso}")
-    values = source_params(source)
     for sock in node.inputs:
         if sock.name in values and hasattr(sock, "default_value"):
             sock.default_value = values[sock.name]

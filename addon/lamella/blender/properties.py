@@ -235,6 +235,18 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
                 else f"Force the {m} model", i) for i, m in enumerate(MODELS)],
         default="auto", update=_on_edit)
     picked_model: StringProperty(name="Picked Model", description="The model the last compile ran")
+    lobe_budget: EnumProperty(
+        name="Lobe Budget",
+        description="Closures the shader may use: the model's lobes are merged down to this many "
+                    "(fewer closures render faster; Auto keeps the BRDF within 1 % of all lobes)",
+        items=[("auto", "Auto", "The fewest closures within 1 % of every lobe (relative L1)", 0),
+               ("all", "All", "Every lobe of the model", 1)]
+              + [(str(k), str(k), f"At most {k} closure{'s' if k > 1 else ''}", k + 1) for k in range(1, 9)],
+        default="auto", update=_on_edit)
+    closures: IntProperty(name="Closures", description="Closures the compiled shader uses")
+    lobes_all: IntProperty(name="Lobes", description="Lobes the model emits for this stack")
+    live_params: StringProperty(name="Live Parameters",
+                                description="Parameters linked to a texture: read by the shader, not baked")
     status: EnumProperty(name="Status", items=STATUS, default="NONE")
     status_message: StringProperty(name="Message")
     compile_ms: FloatProperty(name="Compile Time", description="Milliseconds the last compile took")

@@ -126,7 +126,8 @@ def flush_groups() -> None:
         if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
             continue
         stack = Stack.from_json(mat.lamella.compiled_json)
-        material_nodes.install_group(mat, stack, mat.lamella.model, script.script.as_string())
+        live = tuple(p for p in mat.lamella.live_params.split(", ") if p)
+        material_nodes.install_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
         if bpy.context.scene is not None:
             material_nodes.wire_cycles(mat, bpy.context.scene)
 
@@ -139,18 +140,17 @@ def _on_group_timer():
     return None
 
 
-def build_shader(stack, model: str):
-    """Trace and compile the shader of ``stack`` under ``model`` without touching any material:
-    (source, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError (an
-    unknown model) or OSLCompileError."""
+def build_shader(stack, model: str, live=(), budget="auto"):
+    """Stage and compile the shader of ``stack`` under ``model`` without touching any material,
+    with the parameters ``live`` read from their sockets and every other value baked, lobes
+    merged to ``budget``: (OslShader, .oso path, the model that ran). Raises StackError,
+    UnsupportedStack, ValueError (an unknown model) or OSLCompileError."""
     from ..core import luts
-    from ..core.backends.osl import emit_osl
-    from ..core.models import resolve
+    from ..core.backends.osl import osl_shader
     from .osl_compile import compile_source
 
-    picked = resolve(model, stack).name
-    source = emit_osl(stack, model, lut_dir=str(luts.DATA_DIR))
-    return source, compile_source(source, "lamella"), picked
+    shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget)
+    return shader, compile_source(shader.source, "lamella"), shader.model
 
 
 def install(mat, stack, built, t0: float | None = None, defer_group: bool = False) -> None:
@@ -159,9 +159,9 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     from ..core import luts
     from . import inspector, material_nodes
 
-    source, oso, picked = built
-    material_nodes.install_shader(mat, source, oso, str(luts.DATA_DIR))
-    if material_nodes.install_group(mat, stack, mat.lamella.model, source, build=not defer_group) is None:
+    shader, oso, picked = built
+    material_nodes.install_shader(mat, shader, oso, str(luts.DATA_DIR))
+    if material_nodes.install_group(mat, stack, mat.lamella.model, shader, build=not defer_group) is None:
         _stale_groups.add(mat.name_full)
         if not bpy.app.timers.is_registered(_on_group_timer):
             bpy.app.timers.register(_on_group_timer, first_interval=GROUP_DELAY)
@@ -171,6 +171,10 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
         material_nodes.wire_cycles(mat, bpy.context.scene)
     settings = mat.lamella
     settings.picked_model = picked
+    if shader.staged is not None:
+        settings.closures = len(shader.staged.closures)
+        settings.lobes_all = shader.staged.lobes_all
+    settings.live_params = ", ".join(shader.live)
     settings.compiled_json = stack.to_json(indent=None)
     settings.status = "OK"
     settings.status_message = ""
@@ -193,7 +197,7 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
     t0 = time.perf_counter()
     try:
         stack = Stack.from_dict(stack_dict(settings))
-        built = build_shader(stack, settings.model)
+        built = build_shader(stack, settings.model, _linked_params(mat, stack, settings.model), settings.lobe_budget)
     except (StackError, UnsupportedStack, OSLCompileError, ValueError) as e:
         settings.status = "ERROR"
         settings.status_message = str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0]
@@ -202,6 +206,23 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
         return False
     install(mat, stack, built, t0, defer_group)
     return True
+
+
+def _linked_params(mat, stack, model) -> tuple:
+    """The model parameters of ``stack`` whose sockets (on the Script node or the node group) are
+    linked in ``mat``: they stay live in the shader."""
+    from . import material_nodes
+
+    return material_nodes.linked_params(mat)
+
+
+def links_changed(mat) -> bool:
+    """Whether the parameters linked in ``mat`` differ from those its shader reads live (a
+    texture linked or unlinked since the last compile: a structure edit)."""
+    from . import material_nodes
+
+    s = mat.lamella
+    return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_params(mat)) != s.live_params
 
 
 # ---------------------------------------------------------------- handlers
@@ -233,6 +254,9 @@ _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles r
 def _before_render(scene, *_args):
     from .material_nodes import group_needed
 
+    for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile
+        if mat.library is None and mat.lamella.enabled and links_changed(mat):
+            _pending[mat.name_full] = True
     if _pending:
         flush()
     if _stale_groups and group_needed(scene):

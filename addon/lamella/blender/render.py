@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 
-ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled", "reference")
+ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled", "principled-svm", "reference")
 SCENES = ("sphere-env", "sphere-sun", "white-furnace")
 # white-furnace (not a canonical comparison scene): a uniform white world of radiance 1, so every
 # sphere pixel shows the material's directional albedo for that pixel's view direction.
@@ -101,7 +101,9 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     return sc, sphere
 
 
-def assign_material(sphere, stack, engine: str, model: str = "auto"):
+def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True):
+    """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
+    merged to ``budget``) or, with ``staged`` False, the whole traced model."""
     bpy = _bpy()
     mat = bpy.data.materials.new("lamella")
     sphere.data.materials.append(mat)
@@ -109,18 +111,20 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     if engine == "cycles-osl":
-        from ..core.backends.osl import emit_osl
+        from ..core.backends.osl import osl_shader
         from .osl_compile import assign_script
 
         node = nt.nodes.new("ShaderNodeScript")
         name = f"lamella_{stack.name or 'stack'}.osl"
-        assign_script(node, bpy.data.texts.new(name), emit_osl(stack, model), name)
+        shader = osl_shader(stack, model, budget=budget, staged=staged)
+        assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.params)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine in ("cycles-nodes", "eevee"):
         from ..core.backends.node_graph import emit_plan
         from .node_group import build_group, group_name
 
-        group = build_group(emit_plan(stack, model), group_name(stack.name))
+        group = build_group(emit_plan(stack, model, budget=budget, staged=staged, image=f".lamella_table {mat.name}"),
+                            group_name(stack.name))
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = group
         tangent = nt.nodes.new("ShaderNodeTangent")
@@ -134,10 +138,12 @@ def assign_material(sphere, stack, engine: str, model: str = "auto"):
             use_eevee(sphere.users_scene[0])
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
-    elif engine in ("principled", "eevee-principled"):
+    elif engine in ("principled", "eevee-principled", "principled-svm"):
         nt.links.new(_principled(nt, stack).outputs["BSDF"], out.inputs["Surface"])
         if engine == "eevee-principled":
             use_eevee(sphere.users_scene[0])
+        elif engine == "principled-svm":  # Cycles' default shading system
+            sphere.users_scene[0].cycles.shading_system = False
     else:
         raise ValueError(f"engine {engine!r} is not available yet (have: {', '.join(ENGINES)})")
     return mat
@@ -175,7 +181,8 @@ def _principled(nt, stack):
 
 def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
                  out: str | Path | None = None, filter_width: float | None = None, seed: int = 0,
-                 thickness: float | None = None, open_back: bool = False, model: str = "auto"):
+                 thickness: float | None = None, open_back: bool = False, model: str = "auto", budget="auto",
+                 staged: bool = True):
     """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
@@ -192,7 +199,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
 
         build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS)
     else:
-        assign_material(sphere, stack, engine, model)
+        assign_material(sphere, stack, engine, model, budget, staged)
     px, seconds = render_scene(sc)
     if out is not None:
         write_rgba(out, px)

@@ -196,6 +196,11 @@ def draw_model(layout, mat) -> None:
     col.prop(s, "model")
     if s.model == "auto" and s.picked_model:
         col.label(text=f"Auto picked {s.picked_model}", icon="INFO")
+    col.prop(s, "lobe_budget")
+    if s.lobes_all:
+        col.label(text=f"{s.closures} closures for {s.lobes_all} lobes", icon="SHADING_RENDERED")
+    col.label(text=f"Live: {s.live_params}" if s.live_params else "Live: nothing (every value baked)",
+              icon="LINKED" if s.live_params else "UNLINKED")
     body.operator("lamella.recompile", icon="FILE_REFRESH")
 
 

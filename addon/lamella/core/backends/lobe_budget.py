@@ -59,6 +59,8 @@ class LobeSamples:
     members: list = field(default_factory=list)
     weight: np.ndarray | None = None
     index: int = -1
+    log_tensor: np.ndarray | None = field(default=None, repr=False)
+    exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
 
     @classmethod
     def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
@@ -66,7 +68,8 @@ class LobeSamples:
         energy = np.stack(vals[0:3], -1)
         weight = np.stack(vals[3:6], -1)
         args = dict(zip(closure.args, vals[6:]))
-        s = cls(closure.kind, energy, args, closure.label, closure.lobe, weight=weight, index=index)
+        s = cls(closure.kind, energy, args, closure.label, closure.lobe, weight=weight, index=index,
+                exprs={**closure.args, **{f"weight{ch}": w for ch, w in enumerate(closure.weight)}})
         s.members = [s]
         return s
 
@@ -135,10 +138,14 @@ def _args_of_tensor(kind, t: np.ndarray) -> dict:
     return {"ax": ax, "ay": np.where(iso, ax, ay), "cos": np.where(iso, 1.0, c), "sin": np.where(iso, 0.0, s)}
 
 
+def _log_tensor(s: LobeSamples) -> np.ndarray:
+    if s.log_tensor is None:
+        s.log_tensor = _tensor_fn(_tensor(s), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
+    return s.log_tensor
+
+
 def _log_distance(a: LobeSamples, b: LobeSamples) -> np.ndarray:
-    la = _tensor_fn(_tensor(a), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
-    lb = _tensor_fn(_tensor(b), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
-    return np.sqrt(((la - lb) ** 2).sum((-1, -2)))
+    return np.sqrt(((_log_tensor(a) - _log_tensor(b)) ** 2).sum((-1, -2)))
 
 
 def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
@@ -201,7 +208,7 @@ def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], dirs: np.ndar
     are left out of both (they merge only with each other, exactly)."""
     from ..suite import wo_grid
 
-    rows = np.nonzero(dirs[:, 2] >= math.cos(math.radians(max_degrees)) - 1e-9)[0]
+    rows = check_rows(dirs, max_degrees)
     worst = 0.0
     ops = NumpyOps(np.float64)
     for r in rows:
@@ -231,6 +238,24 @@ def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], dirs: np.ndar
     return worst
 
 
+CHECK_DEGREES = (0.0, 30.0, 45.0, 60.0, 75.0)  # views the automatic budget checks (and 4 azimuths)
+
+
+def check_rows(dirs: np.ndarray, max_degrees: float = AUTO_MAX_DEGREES) -> list[int]:
+    """The grid views nearest to CHECK_DEGREES (up to ``max_degrees``) at four azimuths."""
+    theta = np.degrees(np.arccos(np.clip(dirs[:, 2], -1.0, 1.0)))
+    phi = np.arctan2(dirs[:, 1], dirs[:, 0])
+    rows = set()
+    for t in CHECK_DEGREES:
+        if t > max_degrees:
+            continue
+        near = np.abs(theta - theta[np.argmin(np.abs(theta - t))]) < 1e-9
+        for p in (0.0, 0.5 * math.pi, 0.25 * math.pi, -0.6 * math.pi):
+            cand = np.nonzero(near)[0]
+            rows.add(int(cand[np.argmin(np.abs(np.angle(np.exp(1j * (phi[cand] - p)))))]))
+    return sorted(rows)
+
+
 @dataclass
 class Group:
     """A closure of the staged shader: the merged lobe and the model's lobes it stands for."""
@@ -250,11 +275,17 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
         return [Group(s, [s]) for s in samples]
     order = merge_order(samples, rule)
     if budget == "auto":
-        pick = order[0]
-        for level in order[1:]:
-            if brdf_error(samples, level, dirs) > AUTO_TOLERANCE:
-                break
-            pick = level
+        # the fewest closures within tolerance: the error grows with merging, so bisect
+        lo, hi = 0, len(order) - 1  # order[lo] is within tolerance (every lobe: no error)
+        if brdf_error(samples, order[hi], dirs) <= AUTO_TOLERANCE:
+            lo = hi
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if brdf_error(samples, order[mid], dirs) <= AUTO_TOLERANCE:
+                lo = mid
+            else:
+                hi = mid
+        pick = order[lo]
     else:
         want = max(budget - n_live, 1)
         pick = next((level for level in order if len(level) <= want), order[-1])

@@ -100,6 +100,9 @@ class Plan:
     model: str
     stack_json: str = ""
     traced: tuple = field(default=(), repr=False)  # (tracer, expressions): what each output lowers
+    frame: str = "shading"  # "view": the local x axis is the view's azimuth (staging)
+    images: dict = field(default_factory=dict)  # material tables: image name -> pixels (rows bottom first)
+    staged: object = field(default=None, repr=False)
 
     def leaf(self, name: str) -> Out:
         return Out(-1 - self.leaves.index(name), "Value")
@@ -127,8 +130,12 @@ def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[f
 class _Lowering:
     """Traced graph -> plan nodes, sharing identical nodes."""
 
-    def __init__(self, tracer: Tracer):
+    def __init__(self, tracer: Tracer, table=None, image: str = ""):
         self.t = tracer
+        self.table = table  # the material table of a staged graph (``mtab`` reads)
+        self.image = image
+        self.pixels = None
+        self._coords: dict = {}
         self.nodes: list[PlanNode] = []
         self.leaves: list[str] = []
         self.env: dict[int, object] = {}
@@ -178,6 +185,8 @@ class _Lowering:
                 v = self.select(*a)
             elif e.op == "lut":
                 v = self.lut(a[0], *a[1:])
+            elif e.op == "mtab":
+                v = self.mtab(int(a[0]), a[1], a[2])
             else:
                 raise NotImplementedError(f"no node for traced op {e.op!r}")
             self.env[id(e)] = v
@@ -207,6 +216,73 @@ class _Lowering:
                        {"Vector": Out(xyz, "Vector")}, ("Color", "Alpha"))
         sep = self.add("ShaderNodeSeparateXYZ", {}, {"Vector": Out(tex, "Color")}, ("X", "Y", "Z"))
         return [Out(tex, "Alpha") if ch == "A" else Out(sep, ch) for ch in channels]
+
+    # the material table: three columns a texel, read at texel centres with Closest interpolation
+    # and blended here (Linear reads use mipmaps in EEVEE, chosen by the screen-space derivative
+    # of the coordinate, which for a coordinate computed from the view is meaningless)
+    def material_pixels(self) -> np.ndarray:
+        """The material table as an RGBA image (rows bottom first): row i is view node i, texel
+        j * G + g holds columns 3 g .. 3 g + 2 at azimuth node j."""
+        n_mu, n_phi, cols = self.table.shape
+        groups = -(-cols // 3)
+        padded = np.zeros((n_mu, n_phi, groups * 3), dtype=np.float32)
+        padded[..., :cols] = self.table
+        rgb = padded.reshape(n_mu, n_phi * groups, 3)
+        return np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), dtype=np.float32)], -1)
+
+    def _mcoords(self, c, p):
+        key = (c if not isinstance(c, Out) else (c.node, c.socket), p if not isinstance(p, Out) else (p.node, p.socket))
+        hit = self._coords.get(key)
+        if hit is not None:
+            return hit
+        n_mu, n_phi, cols = self.table.shape
+        groups = -(-cols // 3)
+        width = n_phi * groups
+        if isinstance(c, Out):
+            c = Out(self.add("ShaderNodeMath", {"operation": "ADD", "use_clamp": True}, {"Value": c, "Value_001": 0.0}), "Value")
+        x = self.math("MULTIPLY", c, float(n_mu - 1))
+        i0 = self.math("MINIMUM", self.math("FLOOR", x), float(n_mu - 2))
+        f = self.math("SUBTRACT", x, i0)
+        v0 = self.math("DIVIDE", self.math("ADD", i0, 0.5), float(n_mu))
+        v1 = self.math("ADD", v0, 1.0 / n_mu)
+        if n_phi == 1:
+            us, g = [0.5 / width], None
+        else:
+            y = self.math("MULTIPLY", p, float(n_phi))
+            j0 = self.math("MINIMUM", self.math("FLOOR", y), float(n_phi - 1))
+            g = self.math("SUBTRACT", y, j0)
+            j1 = self.math("MODULO", self.math("ADD", j0, 1.0), float(n_phi))
+            us = [self.math("DIVIDE", self.math("ADD", self.math("MULTIPLY", j, float(groups)), 0.5), float(width))
+                  for j in (j0, j1)]
+        hit = self._coords[key] = (us, (v0, v1), f, g, width, {})
+        return hit
+
+    def mtab(self, col: int, c, p):
+        us, vs, f, g, width, reads = self._mcoords(c, p)
+        group, channel = divmod(col, 3)
+        sep = reads.get(group)
+        if sep is None:
+            blended = []
+            for u in us:
+                u = self.math("ADD", u, group / width) if group else u
+                texels = []
+                for v in vs:
+                    xyz = self.add("ShaderNodeCombineXYZ", {}, {"X": u, "Y": v, "Z": 0.0}, ("Vector",))
+                    tex = self.add("ShaderNodeTexImage", {"image": self.image, "interpolation": "Closest",
+                                                          "extension": "EXTEND"},
+                                   {"Vector": Out(xyz, "Vector")}, ("Color", "Alpha"))
+                    texels.append(Out(tex, "Color"))
+                blended.append(self._mix(texels[0], texels[1], f))
+            if g is not None:
+                blended = [self._mix(blended[0], blended[1], g)]
+            sep = reads[group] = self.add("ShaderNodeSeparateXYZ", {}, {"Vector": blended[0]}, ("X", "Y", "Z"))
+        return Out(sep, "XYZ"[channel])
+
+    def _mix(self, a, b, f):
+        """a + (b - a) f on three channels: a vector Mix node."""
+        i = self.add("ShaderNodeMix", {"data_type": "VECTOR", "clamp_factor": False},
+                     {"Factor_Float": f, "A_Vector": a, "B_Vector": b}, ("Result_Vector",))
+        return Out(i, "Result_Vector")
 
     def lut(self, name, *c):
         spec = luts.SPECS[name]
@@ -249,17 +325,32 @@ _FOLD_MATH = {
 }
 
 
-def emit_plan(stack, model: str = "auto") -> Plan:
+TABLE_IMAGE = ".lamella_table"  # the default name of a staged plan's material-table image
+
+
+def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
+              image: str = TABLE_IMAGE) -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
-    anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``)."""
+    anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``).
+    ``staged`` (default): the model staged for a material whose parameters ``live`` are linked,
+    lobes merged to ``budget`` (``staging.stage``), the table read from the image ``image``
+    (``Plan.images``); ``staged=False``: the whole model as nodes."""
     traced = trace_closures(stack, model)
-    stack, t = traced.stack, traced.tracer
-    specs = [(c, c.weight, c.kind.bsdf(t, c.args, traced.wi)) for c in traced.closures]
+    stack = traced.stack
+    params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
+    if staged:
+        from .staging import stage
+
+        st = stage(stack, model, live, budget)
+        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
+    else:
+        st, t, closures, wi, frame, table = None, traced.tracer, traced.closures, traced.wi, "shading", None
+    specs = [(c, c.weight, c.kind.bsdf(t, c.args, wi)) for c in closures]
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]
         exprs += [x for vec in b.vectors.values() if vec is not None for x in vec]
-    low = _Lowering(t)
+    low = _Lowering(t, table, image)
     low.lower(exprs)
     bsdfs = []
     for c, color, b in specs:
@@ -268,11 +359,12 @@ def emit_plan(stack, model: str = "auto") -> Plan:
                           {s: (None if vec is None else tuple(low.ref(x) for x in vec)) for s, vec in b.vectors.items()},
                           c.label))
     sections = {"setup": "incident direction", "lobes": "lobes", "closures": "closure weights",
-                "base": f"base: {stack.base.type}"}
+                "base": f"base: {stack.base.type}", "table": "the material table", "live": "linked parameters"}
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if c.has_scattering else "")
-    return Plan(low.nodes, low.leaves, {k: float(t.defaults[k]) for k in t.params}, bsdfs, sections,
-                traced.model, stack.to_json(indent=None), (t, exprs, [low.ref(e) for e in exprs]))
+    images = {image: low.material_pixels()} if any(n.props.get("image") == image for n in low.nodes) else {}
+    return Plan(low.nodes, low.leaves, params, bsdfs, sections, traced.model, stack.to_json(indent=None),
+                (t, exprs, [low.ref(e) for e in exprs]), frame, images, st)
 
 
 # ---------------------------------------------------------------- register pressure
@@ -442,7 +534,7 @@ _NP_MATH = {
     "LESS_THAN": lambda a, b: (a < b).astype(a.dtype), "GREATER_THAN": lambda a, b: (a > b).astype(a.dtype),
     "SQRT": _safe_sqrt, "EXPONENT": np.exp, "POWER": _safe_pow, "ABSOLUTE": np.abs, "MINIMUM": np.minimum,
     "MAXIMUM": np.maximum, "COSINE": np.cos, "SINE": np.sin, "ARCTAN2": np.arctan2, "LOGARITHM": _safe_log,
-    "FLOOR": np.floor, "MULTIPLY_ADD": lambda a, b, c: a * b + c,
+    "FLOOR": np.floor, "MULTIPLY_ADD": lambda a, b, c: a * b + c, "MODULO": np.fmod,
 }
 
 
@@ -476,6 +568,14 @@ def bilinear(img: np.ndarray, u, v):
     return (top * (1 - fy) + bottom * fy).astype(img.dtype)
 
 
+def closest(img: np.ndarray, u, v):
+    """Closest, Extend image texture look-up."""
+    h, w = img.shape[:2]
+    xi = np.clip(np.floor(np.asarray(u) * w), 0, w - 1).astype(int)
+    yi = np.clip(np.floor(np.asarray(v) * h), 0, h - 1).astype(int)
+    return img[yi, xi]
+
+
 def evaluate_plan(plan: Plan, values: dict, dtype=np.float32):
     """Run the plan on leaf ``values`` (by name, broadcastable arrays) with Blender's node
     semantics in ``dtype``. Returns ``value_of(ref)``: the value of an ``Out`` (or a literal)."""
@@ -497,14 +597,19 @@ def evaluate_plan(plan: Plan, values: dict, dtype=np.float32):
                 r = np.asarray(_NP_MATH[n.props["operation"]](*args), dtype=dtype)
                 env[i] = {"Value": np.clip(r, 0, 1).astype(dtype) if n.props.get("use_clamp") else r}
             elif n.bl_idname == "ShaderNodeCombineXYZ":
-                env[i] = {"Vector": np.broadcast_arrays(x["X"], x["Y"], x["Z"])}
+                env[i] = {"Vector": np.broadcast_arrays(*(np.asarray(x[k], dtype=dtype) for k in "XYZ"))}
             elif n.bl_idname == "ShaderNodeTexImage":
                 f = n.props["image"]
                 if f not in images:
-                    images[f] = table_pixels(f, dtype)
+                    images[f] = plan.images[f].astype(dtype) if f in plan.images else table_pixels(f, dtype)
                 u, v, _ = x["Vector"]
-                rgba = bilinear(images[f], u, v)
+                read = closest if n.props.get("interpolation") == "Closest" else bilinear
+                rgba = read(images[f], u, v)
                 env[i] = {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
+            elif n.bl_idname == "ShaderNodeMix":
+                a, b = np.asarray(x["A_Vector"], dtype=dtype), np.asarray(x["B_Vector"], dtype=dtype)
+                f = np.asarray(x["Factor_Float"], dtype=dtype)[..., None]
+                env[i] = {"Result_Vector": (a + (b - a) * f).astype(dtype)}
             elif n.bl_idname == "ShaderNodeSeparateXYZ":
                 c = x["Vector"]
                 env[i] = {"X": c[..., 0], "Y": c[..., 1], "Z": c[..., 2]}

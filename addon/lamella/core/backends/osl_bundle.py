@@ -312,7 +312,8 @@ def write_bundle(stack, out_dir, model: str = "auto", target: str = "cycles", *,
     else:
         shader = _identifier(Path(file_name).stem)
     model_name = resolve(model, stack).name
-    src = emit_osl(stack, model=model, name=shader, lut_dir=lut_dir if lut_dir else TABLES_DIR, view=target)
+    # the fully traced shader until the bundle describes itself from the staged IR
+    src = emit_osl(stack, model=model, name=shader, lut_dir=lut_dir if lut_dir else TABLES_DIR, view=target, staged=False)
     files = table_files(src)
     missing = [f for f in files if not (luts.DATA_DIR / f).exists()]
     if missing:

@@ -184,22 +184,25 @@ def _live_set(t: Tracer, live) -> dict[int, bool]:
 
 
 class _Columns:
-    """The table under construction: float64 columns over the grid, deduplicated; a column that
-    is the same at every node becomes a literal."""
+    """The table under construction: float64 columns over the grid, one per distinct ``key`` (the
+    value it stands for). A column the same at every node becomes a literal only where ``fold``
+    says its value is structural (no parameter reaches it): the shader's structure then never
+    depends on the parameters' values, so a value edit changes the table alone."""
 
     def __init__(self, shape):
         self.shape = shape
         self.data: list[np.ndarray] = []
-        self._index: dict[bytes, int] = {}
+        self._index: dict = {}
 
-    def add(self, values) -> float | int:
+    def add(self, values, key=None, fold: bool = False) -> float | int:
         v = np.broadcast_to(np.asarray(values, dtype=np.float64), self.shape)
         if not np.all(np.isfinite(v)):
             raise FloatingPointError("the model is not finite on the view grid")
         v32 = v.astype(np.float32)
-        if np.all(v32 == v32.flat[0]):
+        if fold and np.all(v32 == v32.flat[0]):
             return float(v32.flat[0])
-        key = v32.tobytes()
+        if key is None:
+            key = ("anonymous", len(self.data))
         if key not in self._index:
             self._index[key] = len(self.data)
             self.data.append(v32)
@@ -260,15 +263,17 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     t2.set_scope("table")
     cc, pp = grid.coords(t2, wi2)
 
-    def read(values_on_grid):
-        k = cols.add(np.reshape(values_on_grid, (grid.n_mu, grid.n_phi)))
+    def read(values_on_grid, key=None, fold=False):
+        k = cols.add(np.reshape(values_on_grid, (grid.n_mu, grid.n_phi)), key, fold)
         return k if isinstance(k, float) else t2.node("mtab", str(k), cc, pp)
+
+    reaches_param = _param_reach(t)
 
     closures = []
     merged = []
     for grp in groups:
         merged.append([s.index for s in grp.members])
-        closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs)))
+        closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
 
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
@@ -280,7 +285,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         boundary += [x for x in (*c.weight, *c.args.values()) if isinstance(x, Expr) and not is_live[id(x)]]
     boundary = list({id(e): e for e in boundary if e.op != "input"}.values())
     for e, v in zip(boundary, on_grid(boundary)):
-        env[id(e)] = read(v)
+        env[id(e)] = read(v, ("expr", id(e)), not reaches_param[id(e)])
     for name, x in zip(VIEW_INPUTS, wi2):
         if name in t.inputs:
             env[id(t.inputs[name])] = x
@@ -308,10 +313,27 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                   {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp))
 
 
-def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read, dirs) -> Closure:
+def _param_reach(t: Tracer) -> dict[int, bool]:
+    """Whether a parameter reaches each node of ``t``."""
+    out: dict[int, bool] = {}
+    for e in t.nodes:
+        out[id(e)] = e.op == "param" or any(isinstance(a, Expr) and out[id(a)] for a in e.args)
+    return out
+
+
+def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column, dirs, reaches_param) -> Closure:
     """A closure of the staged graph from a baked (possibly merged) lobe: weights and arguments
-    read from the table; a lobe whose axes turn with the view is read as its roughness tensor."""
+    read from the table; a lobe whose axes turn with the view is read as its roughness tensor. A
+    value of a lobe of the model itself that no parameter reaches and that is the same at every
+    view folds to a literal; every other value is a column."""
     kind = lobe.kind
+    exprs = lobe.exprs if len(lobe.members) == 1 else {}
+
+    def read(values, field):
+        e = exprs.get(field)
+        fold = field in exprs and not (isinstance(e, Expr) and reaches_param[id(e)])
+        return read_column(values, ("lobe", id(lobe), field) if e is None else ("expr", id(e)), fold)
+
     args = {}
     if kind.name == "reflection":
         ax, ay, cs, sn = (lobe.args[k] for k in ("ax", "ay", "cos", "sin"))
@@ -321,15 +343,15 @@ def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read, dirs)
             txx = ax * cs * cs + ay * sn * sn
             tyy = ax * sn * sn + ay * cs * cs
             txy = (ax - ay) * cs * sn
-            args.update(_axes_of_tensor(t2, read(txx), read(tyy), read(txy)))
+            args.update(_axes_of_tensor(t2, read(txx, "txx"), read(tyy, "tyy"), read(txy, "txy")))
         else:
-            args.update(ax=read(ax), ay=read(ay), cos=float(cs[0]), sin=float(sn[0]))
+            args.update(ax=read(ax, "ax"), ay=read(ay, "ay"), cos=float(cs[0]), sin=float(sn[0]))
     else:
-        args = {k: read(v) for k, v in lobe.args.items()}
+        args = {k: read(v, k) for k, v in lobe.args.items()}
     if kind.name == "transmission":  # interpolated, the closure normal is made unit again
         inv = 1.0 / t2.sqrt(t2.max(args["nx"] * args["nx"] + args["ny"] * args["ny"] + args["nz"] * args["nz"], 1e-30))
         args.update(nx=args["nx"] * inv, ny=args["ny"] * inv, nz=args["nz"] * inv)
-    weight = tuple(read(w) for w in lobe.closure_weight(dirs))
+    weight = tuple(read(w, f"weight{ch}") for ch, w in enumerate(lobe.closure_weight(dirs)))
     return Closure(lobe.lobe, kind, weight, args, lobe.label)
 
 
