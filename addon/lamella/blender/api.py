@@ -29,7 +29,11 @@ def apply_stack(material, stack, model: str | None = None):
     settings = material.lamella
     if model is None:
         model = settings.model if settings.enabled else "auto"
-    built = recompile.build_shader(stack, model)  # raises before anything changes
+    from . import material_nodes
+
+    # parameters whose sockets are linked (a texture) stay live; the rest is baked
+    built = recompile.build_shader(stack, model, material_nodes.linked_params(material),
+                                   material.lamella.lobe_budget)  # raises before anything changes
     with recompile.suspended():
         write_stack(settings, stack)
         settings.model = model

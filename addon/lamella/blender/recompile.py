@@ -192,12 +192,13 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
     from ..core.stack import Stack, StackError
     from .osl_compile import OSLCompileError
     from .stack_props import stack_dict
+    from . import material_nodes
 
     settings = mat.lamella
     t0 = time.perf_counter()
     try:
         stack = Stack.from_dict(stack_dict(settings))
-        built = build_shader(stack, settings.model, _linked_params(mat, stack, settings.model), settings.lobe_budget)
+        built = build_shader(stack, settings.model, material_nodes.linked_params(mat), settings.lobe_budget)
     except (StackError, UnsupportedStack, OSLCompileError, ValueError) as e:
         settings.status = "ERROR"
         settings.status_message = str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0]
@@ -206,14 +207,6 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
         return False
     install(mat, stack, built, t0, defer_group)
     return True
-
-
-def _linked_params(mat, stack, model) -> tuple:
-    """The model parameters of ``stack`` whose sockets (on the Script node or the node group) are
-    linked in ``mat``: they stay live in the shader."""
-    from . import material_nodes
-
-    return material_nodes.linked_params(mat)
 
 
 def links_changed(mat) -> bool:

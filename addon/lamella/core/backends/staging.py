@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import lobe_kinds, luts
+from .. import luts
 from ..stack import Stack
 from . import lobe_budget
 from .closures import Closure, trace_closures
@@ -135,6 +135,7 @@ class Staged:
     budget: object
     merged: list = field(default_factory=list)
     coords: tuple = ()
+    interface: tuple = ()  # every parameter of the model: the shader's sockets, live or baked
 
     @property
     def columns(self) -> int:
@@ -142,13 +143,14 @@ class Staged:
 
     def structure_key(self) -> str:
         """What identifies the compiled shader apart from the table's values and the live
-        parameters' values: the staged graph's shape, the closures and the table's size."""
+        parameters' values: the staged graph's shape, the closures, the table's size and the
+        parameters (the sockets)."""
         import hashlib
 
         t = self.tracer
         outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
-        parts = [self.frame, str(self.table.shape), ",".join(self.live)]
+        parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface)]
         for k, e in enumerate(t.live_nodes(outs)):
             names[id(e)] = k
             parts.append(e.op + "(" + ",".join(
@@ -310,7 +312,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         closures.append(Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight),
                                 {k: rebuild(x) for k, x in c.args.items()}, c.label))
     return Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
-                  {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp))
+                  {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
+                  tuple(sorted(t.params)))
 
 
 def _param_reach(t: Tracer) -> dict[int, bool]:
