@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from lamella.core import Stack, suite
-from lamella.core.backends import node_graph
+from lamella.core.backends import node_graph, staging
 from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.backends.staging import StagedOps
@@ -40,12 +40,17 @@ def _compare(plan, values):
     return pairs
 
 
-@pytest.mark.parametrize("staged", [True, False], ids=["staged", "traced"])
+@pytest.mark.parametrize("staged", [True, False, "azimuths"], ids=["staged", "traced", "azimuth-table"])
 @pytest.mark.parametrize("case", CASES)
 def test_plan_equals_the_traced_model(case, staged):
-    """The plan of the staged shader (table reads: Closest texels blended by Mix nodes) and of the
-    whole traced model."""
-    plan = emit_plan(suite.load(case), staged=staged)
+    """The plan of the staged shader (table reads: Closest texels blended by Mix nodes), of the
+    same on an (elevation, azimuth) table (for anisotropic stacks) and of the whole traced model."""
+    grid = None
+    if staged == "azimuths":
+        if staging.isotropic(suite.load(case)):
+            pytest.skip("an isotropic stack is staged in the view frame: one azimuth")
+        grid = staging.ViewGrid(staging.N_MU, staging.N_PHI)
+    plan = emit_plan(suite.load(case), staged=bool(staged), grid=grid)
     values = dict(_directions(grazing=False), **plan.params)
     pairs = iter(_compare(plan, values))
     lobes = []

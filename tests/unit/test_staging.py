@@ -52,3 +52,21 @@ def test_budgets():
     assert lobe_budget.parse("3") == 3
     with pytest.raises(ValueError):
         lobe_budget.parse(9)
+
+
+@pytest.mark.parametrize("case", ["rotated_60", "opposing_anisotropy"])
+def test_an_azimuth_the_table_does_not_vary_with_is_dropped(case):
+    """Anisotropic stacks whose lobe energies and roughness tensors depend on the elevation alone
+    get a one-azimuth table; the shader equals the one staged on the full (elevation, azimuth) grid."""
+    stack = suite.load(case)
+    st = staging.stage(stack, budget="all")
+    full = staging.stage(stack, budget="all", grid=staging.ViewGrid(staging.N_MU, staging.N_PHI))
+    assert st.frame == full.frame == "shading"
+    assert st.table.shape[1] == 1 and full.table.shape[1] == staging.N_PHI
+    assert "atan2" not in {e.op for e in st.tracer.nodes}
+    for theta, phi in ((0.0, 0.0), (35.0, 0.7), (70.0, 2.9)):
+        wi = suite.incident(theta, phi)
+        wo, _ = suite.wo_grid(wi)
+        a = staging.evaluate_staged(st, wi, wo, dtype=np.float64)
+        b = staging.evaluate_staged(full, wi, wo, dtype=np.float64)
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)

@@ -216,7 +216,10 @@ def blender_anisotropy(ops, ax, ay):
     across it: the Glossy BSDF sets alpha = r^2 and, for anisotropy a >= 0, alpha_x = alpha (1 - a),
     alpha_y = alpha / (1 - a), for a < 0 alpha_x = alpha / (1 + a), alpha_y = alpha (1 + a)
     (Cycles 5.0, ``svm_node_closure_bsdf``). So alpha = sqrt(ax ay) and |a| = 1 - sqrt(min / max);
-    Cycles clamps |a| to 0.99, an axis ratio of 10^4."""
+    Cycles clamps |a| to 0.99, an axis ratio of 10^4. One traced value for both axes (an
+    isotropic lobe) gives r = sqrt(alpha) and no anisotropy, without the nodes that would find it."""
+    if ax is ay and not isinstance(ax, (int, float)) and getattr(ops, "name", "") == "trace":
+        return ops.sqrt(ax), 0.0
     q = ops.sqrt((ops.min(ax, ay) + 1e-12) / (ops.max(ax, ay) + 1e-12))  # 1 for isotropic, even at 0
     return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, 1.0 - q, q - 1.0)
 

@@ -329,19 +329,20 @@ TABLE_IMAGE = ".lamella_table"  # the default name of a staged plan's material-t
 
 
 def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
-              image: str = TABLE_IMAGE) -> Plan:
+              image: str = TABLE_IMAGE, grid=None) -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
     anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``).
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked,
     lobes merged to ``budget`` (``staging.stage``), the table read from the image ``image``
-    (``Plan.images``); ``staged=False``: the whole model as nodes."""
+    (``Plan.images``) on ``grid`` (``staging.ViewGrid``; default: staging's); ``staged=False``: the
+    whole model as nodes."""
     traced = trace_closures(stack, model)
     stack = traced.stack
     params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
     if staged:
         from .staging import stage
 
-        st = stage(stack, model, live, budget)
+        st = stage(stack, model, live, budget, grid)
         t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
     else:
         st, t, closures, wi, frame, table = None, traced.tracer, traced.closures, traced.wi, "shading", None

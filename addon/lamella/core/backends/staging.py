@@ -30,7 +30,7 @@ read that, never printed text.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -221,7 +221,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
     ``grid``: the view grid (default: ``N_MU`` nodes, times ``N_PHI`` azimuths where the stack is
-    anisotropic)."""
+    anisotropic and its table varies with the azimuth, ``_without_azimuth``)."""
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
     traced = trace_closures(stack, model)
@@ -231,6 +231,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         raise ValueError(f"not a parameter of this shader: {', '.join(unknown)} (have: {', '.join(sorted(t.params))})")
     live = tuple(sorted(live))
     frame = "view" if isotropic(stack) else "shading"
+    default_grid = grid is None
     if grid is None:
         grid = ViewGrid(N_MU, 1 if frame == "view" else N_PHI)
     if frame == "view" and grid.n_phi != 1:
@@ -311,9 +312,53 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         merged.append([traced.closures.index(c)])
         closures.append(Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight),
                                 {k: rebuild(x) for k, x in c.args.items()}, c.label))
-    return Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
-                  {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
-                  tuple(sorted(t.params)))
+    st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
+                {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
+                tuple(sorted(t.params)))
+    return _without_azimuth(st) if default_grid and grid.n_phi > 1 else st
+
+
+def _without_azimuth(st: Staged) -> Staged:
+    """``st`` with one azimuth node where no column of its table varies with the view's azimuth
+    (float32-exact): a stack with anisotropic layers whose lobes' energies and roughness tensors
+    depend on the elevation alone (the lobes' axes are fixed in the shading frame). The graph is
+    rebuilt with the azimuth coordinate 0, so what computed it (atan2) drops out."""
+    table = st.table
+    if not np.all(table == table[:, :1, :]):
+        return st
+    _, pp = st.coords
+    t2 = Tracer()
+    env: dict[int, object] = {id(pp): 0.0} if isinstance(pp, Expr) else {}
+    outs = [x for c in st.closures for x in (*c.weight, *c.args.values())]
+
+    def rebuild(x):
+        return env[id(x)] if isinstance(x, Expr) else x
+
+    reached, todo = set(), [x for x in outs if isinstance(x, Expr)]
+    while todo:  # what the closures read, not through the azimuth coordinate
+        e = todo.pop()
+        if id(e) not in reached and id(e) not in env:
+            reached.add(id(e))
+            todo += [a for a in e.args if isinstance(a, Expr)]
+    for e in st.tracer.nodes:
+        if id(e) not in reached:
+            continue
+        t2.set_scope(e.scope)
+        a = [a if isinstance(a, str) else rebuild(a) for a in e.args]
+        if e.op == "param":
+            env[id(e)] = t2.param(a[0], st.tracer.defaults[a[0]])
+        elif e.op == "input":
+            env[id(e)] = t2.input(a[0])
+        elif e.op == "select":
+            env[id(e)] = t2.select(*a)
+        else:
+            env[id(e)] = t2.node(e.op, *a)
+    wi2 = tuple(t2.input(n) for n in VIEW_INPUTS)
+    closures = [Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight), {k: rebuild(x) for k, x in c.args.items()},
+                        c.label) for c in st.closures]
+    cc = rebuild(st.coords[0])
+    return replace(st, grid=replace(st.grid, n_phi=1), table=np.ascontiguousarray(table[:, :1, :]), tracer=t2,
+                   wi=wi2, closures=closures, coords=(cc, 0.0))
 
 
 def _param_reach(t: Tracer) -> dict[int, bool]:
