@@ -132,6 +132,10 @@ def cmd_bench(a) -> int:
         from .bench import eevee_closures
 
         print(eevee_closures.run(BENCH_DIR).read_text())
+    elif a.what == "eevee-gap":
+        from .bench import eevee_gap
+
+        print(eevee_gap.run(BENCH_DIR, cases=a.cases.split(",") if a.cases else None).read_text())
     elif a.what == "trapping":
         from .bench import trapping
 
@@ -140,6 +144,11 @@ def cmd_bench(a) -> int:
         from .bench import image_references
 
         print(image_references.thickness_study().read_text())
+    elif a.what == "pareto":
+        from .bench import pareto
+
+        out = Path(a.out) if a.out else BENCH_DIR
+        print(pareto.run(out, quick=a.quick, cases=a.cases.split(",") if a.cases else None).read_text())
     elif a.what == "images":
         from .bench import images
 
@@ -167,12 +176,14 @@ def cmd_export_osl(a) -> int:
     out = Path(a.out)
     out_dir, file_name = (out.parent, out.name) if out.suffix.lower() == ".osl" else (out, None)
     try:
+        live = "all" if a.live == ["all"] else tuple(n for arg in a.live for n in arg.split(",") if n)
         shader = write_bundle(stack, out_dir, model=a.model, target=a.target, file_name=file_name,
-                              lut_dir=a.lut_dir)
-    except UnsupportedStack as e:
+                              lut_dir=a.lut_dir, live=live, budget=a.budget)
+    except (UnsupportedStack, ValueError) as e:
         raise _fail(f"export-osl: {e}") from None
     files = bundle_files(shader)
-    lut_note = f"lut_dir defaults to {a.lut_dir!r}" if a.lut_dir else "lut_dir defaults to 'luts', relative"
+    lut_note = ("reads no table file" if len(files) == 2 else
+                f"lut_dir defaults to {a.lut_dir!r}" if a.lut_dir else "lut_dir defaults to 'luts', relative")
     print(f"wrote {shader} ({len(shader.read_text().splitlines())} lines; view target {a.target}; {lut_note})")
     for f in files[1:]:
         print(f"wrote {f}")
@@ -309,9 +320,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="benchmarks")
     p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "eevee-anisotropy",
-                                       "eevee-closures", "shells",
-                                       "trapping"])
-    p.add_argument("--cases", help="images: comma-separated suite cases (default: all)")
+                                       "eevee-closures", "eevee-gap", "shells",
+                                       "trapping", "pareto"])
+    p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
+    p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
+    p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.set_defaults(fn=cmd_bench)
 
     p = sub.add_parser("export-osl", help="write a self-contained OSL bundle for a stack: shader, tables, README")
@@ -324,6 +337,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "osl-spec (the OSL specification: I points toward the surface)")
     p.add_argument("--lut-dir", help="absolute folder of the EXR tables baked in as the shader's lut_dir "
                                      "(default: 'luts', the bundle's copy, relative)")
+    p.add_argument("--live", action="append", default=[], metavar="NAME[,NAME...]",
+                   help="a shader parameter that stays an input (e.g. coat0_alpha, for a texture); 'all' for "
+                        "every parameter; the others are baked into the shader's table (default: none)")
+    p.add_argument("--budget", default="auto", help="lobe budget: auto (default), all, or 1 to 8 closures")
     p.set_defaults(fn=cmd_export_osl)
 
     p = sub.add_parser("apply", help="make a material of a .blend show a stack and save the file (pipelines)")

@@ -1,7 +1,8 @@
-"""`lamella export-osl`: the generated shader compiles with Blender's bundled OSL compiler and
-exposes every per-layer parameter as an input; the export is a bundle (shader, the tables it
-reads, a README listing every parameter) for either view convention (Cycles' I toward the viewer,
-the OSL specification's I toward the surface)."""
+"""`lamella export-osl`: the generated shader compiles with Blender's bundled OSL compiler; it is
+staged (the view-only part a table inside it) and exposes as inputs exactly the parameters asked
+to stay live (`--live`, or every one with `--live all`); the export is a bundle (shader, the
+tables it reads, a README listing every parameter) for either view convention (Cycles' I toward
+the viewer, the OSL specification's I toward the surface)."""
 import os
 import re
 import subprocess
@@ -44,7 +45,7 @@ def _roughness_inputs(prefix, roughness):
 @pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "three_coats", "tinted_varnish", "four_coats"])
 def test_exported_shader_compiles(tmp_path, case):
     osl = tmp_path / f"{case}.osl"
-    r = _cli(case, "-o", str(osl))
+    r = _cli(case, "-o", str(osl), "--live", "all")
     assert r.returncode == 0, r.stderr
     assert osl.exists() and (tmp_path / README).exists()  # -o FILE.osl: the bundle goes beside it
     names = {p.name for p in _compile(osl, tmp_path / f"{case}.oso")}
@@ -57,10 +58,29 @@ def test_exported_shader_compiles(tmp_path, case):
     assert _roughness_inputs("base", stack.base.roughness) <= names
 
 
+def test_a_default_export_is_staged_and_its_inputs_are_what_stays_live(tmp_path):
+    """Nothing live: no layer input, no table file (the shader carries its table); one live
+    parameter: that input alone, and it changes the shader's response."""
+    baked = tmp_path / "baked" / "s.osl"
+    r = _cli("gold_coated", "-o", str(baked))
+    assert r.returncode == 0, r.stderr
+    names = {p.name for p in _compile(baked, tmp_path / "baked.oso")}
+    assert names == {"Normal", "Tangent", "BSDF"}
+    assert not (baked.parent / TABLES_DIR).exists()
+    assert "float MT[" in baked.read_text() and "baked into the shader's table" in (baked.parent / README).read_text()
+    live = tmp_path / "live" / "s.osl"
+    r = _cli("gold_coated", "-o", str(live), "--live", "coat0_alpha", "--budget", "all")
+    assert r.returncode == 0, r.stderr
+    names = {p.name for p in _compile(live, tmp_path / "live.oso")}
+    assert {"coat0_alpha", "Normal", "Tangent", "BSDF"} <= names and "coat0_ior" not in names
+    r = _cli("gold_coated", "-o", str(tmp_path / "bad"), "--live", "coat7_alpha")
+    assert r.returncode == 2 and "coat7_alpha" in r.stderr
+
+
 @pytest.mark.parametrize("target", VIEW_TARGETS)
 @pytest.mark.parametrize("case", BUNDLE_CASES)
 def test_bundle_compiles_and_readme_lists_every_parameter(tmp_path, case, target):
-    shader = write_bundle(suite.load(case), tmp_path, target=target)
+    shader = write_bundle(suite.load(case), tmp_path, target=target, live="all")
     assert shader == tmp_path / f"lamella_{case}.osl"
     src = shader.read_text()
     assert VIEW_LINES[target] in src.splitlines()
@@ -101,7 +121,7 @@ def test_targets_differ_only_in_the_view_line(case):
 
 @pytest.mark.parametrize("case", BUNDLE_CASES)
 def test_bundle_holds_exactly_the_tables_the_shader_reads(tmp_path, case):
-    shader = write_bundle(suite.load(case), tmp_path / "bundle")
+    shader = write_bundle(suite.load(case), tmp_path / "bundle", live="all")
     read = set(LUT_READ.findall(shader.read_text()))
     assert read and read <= {s.file for s in luts.SPECS.values()} | set(luts.PACKED.values())
     written = {p.relative_to(shader.parent).as_posix() for p in shader.parent.rglob("*") if p.is_file()}
@@ -116,7 +136,7 @@ def test_bundle_holds_exactly_the_tables_the_shader_reads(tmp_path, case):
 
 def test_export_into_a_folder_with_target_and_lut_dir(tmp_path):
     out = tmp_path / "bundle"
-    r = _cli("varnished_wood", "-o", str(out), "--target", "osl-spec", "--lut-dir", "/opt/lamella/luts")
+    r = _cli("varnished_wood", "-o", str(out), "--target", "osl-spec", "--lut-dir", "/opt/lamella/luts", "--live", "all")
     assert r.returncode == 0, r.stderr
     shader = out / "lamella_varnished_wood.osl"
     assert str(shader) in r.stdout and str(out / README) in r.stdout

@@ -64,6 +64,7 @@ class _Printer:
         self.lines: list[str] = []
         self._packed: dict[tuple, str] = {}
         self.table_shape = (0, 0, 0)
+        self.files: set[str] = set()  # the EXR tables (in lut_dir) the printed code reads
 
     def ref(self, a) -> str:
         if isinstance(a, Expr):
@@ -92,7 +93,10 @@ class _Printer:
             elif e.op == "select":
                 rhs = f"{self.ref(a[0])} ? {self.ref(a[1])} : {self.ref(a[2])}"
             elif e.op == "lut":
-                rhs = self._packed_read(a) or self._lut(a[0], [self.ref(c) for c in a[1:]], a[1:])
+                rhs = self._packed_read(a)
+                if rhs is None:
+                    rhs = self._lut(a[0], [self.ref(c) for c in a[1:]], a[1:])
+                    self.files.add(luts.SPECS[a[0]].file)
             elif e.op == "mtab":
                 rhs = self._mtab(int(a[0]), self.ref(a[1]), self.ref(a[2]))
             else:
@@ -148,6 +152,7 @@ class _Printer:
         var = self._packed.get(key)
         if var is None:
             var = self._packed[key] = f"q{len(self._packed)}"
+            self.files.add(luts.PACKED[name])
             f = f'concat(lut_dir, "/{luts.PACKED[name]}")'
             self.lines.append(f"    float {var}_a;")
             self.lines.append(f"    color {var} = lamella_tex4({f}, {key[1]}, {key[2]}, {n0}, {n1}, "
@@ -223,17 +228,41 @@ class OslShader:
     model: str
     staged: object = None
     uses_tables: bool = True
+    name: str = ""
+    declared: tuple = ()  # ShaderParam of every declared parameter, in order
+    tables: tuple = ()  # the EXR files (relative to lut_dir) the shader reads, sorted
+    closures: tuple = ()  # ShaderClosure of every closure, in order
+
+
+@dataclass(frozen=True)
+class ShaderParam:
+    """One parameter of a generated shader's declaration: its OSL type, its default as printed."""
+
+    name: str
+    type: str  # OSL type, e.g. "float", "normal", "closure color"
+    default: str
+    output: bool = False
+
+
+@dataclass(frozen=True)
+class ShaderClosure:
+    """One closure of a generated shader: its label (which lobes of the model it carries), its lobe
+    kind and the OSL closure function it calls."""
+
+    label: str
+    kind: str
+    function: str
 
 
 def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
-             view: str = "cycles", live=(), budget="auto", staged: bool = True) -> str:
+             view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all") -> str:
     """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``
     (``osl_shader``)."""
-    return osl_shader(stack, model, name, lut_dir, view, live, budget, staged).source
+    return osl_shader(stack, model, name, lut_dir, view, live, budget, staged, declare).source
 
 
 def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
-               view: str = "cycles", live=(), budget="auto", staged: bool = True) -> OslShader:
+               view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all") -> OslShader:
     """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
 
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
@@ -246,7 +275,11 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     (default: the package's data folder, as an absolute path; a relative path is kept as given, to
     be resolved by the renderer); a staged shader with nothing live reads no file and has no
     ``lut_dir``. ``view``: the renderer's convention for ``I`` (VIEW_TARGETS), which sets the one
-    line computing the view direction."""
+    line computing the view direction. ``declare``: "all" declares every parameter of the model
+    (Blender's Script node, whose sockets are where a texture is linked), "live" only those the
+    shader reads (an exported shader: no input that changes nothing)."""
+    if declare not in ("all", "live"):
+        raise ValueError(f"declare must be 'all' or 'live', got {declare!r}")
     if view not in VIEW_LINES:
         raise ValueError(f"unknown view target {view!r}: expected one of {', '.join(VIEW_TARGETS)}")
     traced = trace_closures(stack, model)
@@ -276,8 +309,14 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     uses_tables = any(e.op == "lut" for e in t.live_nodes(outputs))
 
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
-    params = [f"    float {_identifier(k)} = {_literal(v)}," for k, v in sorted(all_params.items())]
+    live_names = tuple(st.live) if st is not None else tuple(sorted(all_params))
     lut_path = str(Path(lut_dir) if lut_dir else luts.DATA_DIR)
+    declared = [ShaderParam(_identifier(k), "float", _literal(v)) for k, v in sorted(all_params.items())
+                if declare == "all" or k in live_names]
+    declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
+    if uses_tables:
+        declared.append(ShaderParam("lut_dir", "string", f'"{lut_path}"'))
+    declared.append(ShaderParam("BSDF", "closure color", "0", output=True))
     if frame == "view":
         frame_lines = [
             "    // local shading frame: z = N, x = the view's azimuth (an isotropic stack's table is",
@@ -308,9 +347,11 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
                  + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
                  f"    float MT[{table.size}] = {{{values}}};"]
     body += [*_blocked(p.lines), "    BSDF = 0;"]
+    called = []
     for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
         closure = c.kind.osl({name: p.ref(x) for name, x in c.args.items()})
+        called.append(ShaderClosure(c.label, c.kind.name, closure.split("(", 1)[0].strip()))
         body += [
             f"    // {c.label}",
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
@@ -327,18 +368,15 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "",
         *([header.rstrip(), ""] if header else []),
         f"shader {shader}(",
-        *params,
-        "    normal Normal = N,",
-        "    vector Tangent = vector(0.0, 0.0, 0.0),",
-        *([f"    string lut_dir = \"{lut_path}\","] if uses_tables else []),
-        "    output closure color BSDF = 0)",
+        *[f"    {'output ' if d.output else ''}{d.type} {d.name} = {d.default}{')' if d.output else ','}"
+          for d in declared],
         "{",
         *body,
         "}",
         "",
     ])
-    return OslShader(source, all_params, tuple(st.live) if st is not None else tuple(sorted(all_params)),
-                     traced.model, st, uses_tables)
+    return OslShader(source, all_params, live_names, traced.model, st, uses_tables, shader, tuple(declared),
+                     tuple(sorted(p.files)), tuple(called))
 
 
 def _float32_literal(x) -> str:

@@ -2,12 +2,14 @@
 
 ``write_bundle`` writes into one folder:
 
-* ``<shader>.osl``: the generated shader (``lamella.core.backends.osl``) whose ``lut_dir``
-  parameter defaults to the relative path ``"luts"``, with the view line of the target renderer
-  (``osl.VIEW_TARGETS``: Cycles' ``I`` points toward the viewer, the OSL specification's toward
-  the surface);
-* ``luts/``: copies of exactly the EXR tables that shader reads (found in its source, so a table
-  the traced model does not need is not copied);
+* ``<shader>.osl``: the generated shader (``lamella.core.backends.osl``), staged as Blender
+  renders it (the view-only part a constant table inside the shader, lobes merged to the lobe
+  budget) with the parameters named ``live`` left as inputs (``"all"``: every parameter) and no
+  other input; with the view line of the target renderer (``osl.VIEW_TARGETS``: Cycles' ``I``
+  points toward the viewer, the OSL specification's toward the surface); its ``lut_dir``
+  parameter, present when a live part reads the global tables, defaults to ``"luts"``;
+* ``luts/``: copies of exactly the EXR tables that shader reads (as the emitter records them, so a
+  table the shader does not need is not copied);
 * ``README.md``: what the shader is (model, stack), the view convention, the tables, the closures
   and a table of every shader parameter, described from the layer-kind schema
   (``lamella.core.layers``), so the descriptions are the ones the stack format documents.
@@ -19,7 +21,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-from dataclasses import dataclass
 from pathlib import Path
 
 from .. import lobe_kinds, luts
@@ -27,14 +28,11 @@ from ..layers import BASE_KINDS, COAT_KINDS
 from ..layers.schema import RGB, ROUGHNESS
 from ..models import resolve
 from ..stack import Stack
-from .osl import VIEW_LINES, VIEW_TARGETS, _identifier, emit_osl
+from .osl import VIEW_LINES, VIEW_TARGETS, OslShader, ShaderParam, _identifier, osl_shader
 
 TABLES_DIR = "luts"  # the bundle's table folder, and the shader's default lut_dir
 README = "README.md"
 
-_LUT_FILE = re.compile(r'concat\(lut_dir, "/([^"]+)"\)')
-_LOBE = re.compile(r"^\s*// lobe (\d+) \((\w+)\): (.*)$")
-_CLOSURE = re.compile(r"\*\s*(\w+)\(")
 _CHANNELS = {"r": "red", "g": "green", "b": "blue"}
 
 # One line per table for the README (what the shader uses it for); the full account of each
@@ -48,51 +46,6 @@ _TABLE_ROLES = {
     "ggx_refract_albedo": "directional albedo of the refracting GGX closure, the normaliser of the "
                           "transmission lobe",
 }
-
-
-@dataclass(frozen=True)
-class ShaderParam:
-    """One parameter of the shader's declaration, as written in the source."""
-
-    name: str
-    type: str  # OSL type, e.g. "float", "normal", "closure color"
-    default: str  # the default expression as written
-    output: bool = False
-
-
-# ---------------------------------------------------------------- reading the generated source
-def table_files(src: str) -> list[str]:
-    """The EXR files (relative to ``lut_dir``) the shader ``src`` reads, sorted."""
-    return sorted(set(_LUT_FILE.findall(src)))
-
-
-def shader_name(src: str) -> str:
-    m = re.search(r"^shader (\w+)\($", src, re.M)
-    if not m:
-        raise ValueError("no shader declaration in the source")
-    return m.group(1)
-
-
-def shader_parameters(src: str) -> list[ShaderParam]:
-    """Every parameter of the shader declaration of a source written by ``emit_osl`` (one
-    parameter per line between ``shader NAME(`` and ``{``), in declaration order."""
-    lines = src.splitlines()
-    start = next(i for i, ln in enumerate(lines) if re.match(r"^shader \w+\($", ln))
-    out = []
-    for ln in lines[start + 1:]:
-        if ln.strip() == "{":
-            break
-        decl = ln.strip()
-        decl = decl[:-1] if decl.endswith(",") else decl
-        if decl.endswith(")") and decl.count(")") > decl.count("("):
-            decl = decl[:-1]  # the parenthesis closing the parameter list
-        left, default = (s.strip() for s in decl.split("=", 1))
-        words = left.split()
-        output = words[0] == "output"
-        if output:
-            words = words[1:]
-        out.append(ShaderParam(words[-1], " ".join(words[:-1]), default, output))
-    return out
 
 
 # ---------------------------------------------------------------- describing parameters
@@ -195,6 +148,10 @@ def _view_section(target: str) -> list[str]:
 
 
 def _tables_section(files: list[str], lut_default: str) -> list[str]:
+    if not files:
+        return ["## Look-up tables", "",
+                "The shader reads no file: what it needs of Lamella's look-up tables is baked into its own table "
+                "(the constant array `MT`, read by the view's elevation).", ""]
     by_file = {s.file: (s.name, s.shape, f"one channel ({s.channel})") for s in luts.SPECS.values()}
     for name, f in luts.PACKED.items():
         by_file[f] = (name, luts.SPECS[name].shape, "RGBA: four slices of the last axis per texel")
@@ -223,13 +180,16 @@ def _tables_section(files: list[str], lut_default: str) -> list[str]:
     return out
 
 
-def _closures_section(src: str) -> list[str]:
-    lobes = [m.groups() for m in map(_LOBE.match, src.splitlines()) if m]
-    closures = sorted(set(_CLOSURE.findall("\n".join(ln for ln in src.splitlines() if "BSDF +=" in ln))))
+def _closures_section(shader: OslShader) -> list[str]:
+    closures = sorted({c.function for c in shader.closures})
+    st = shader.staged
+    merged = (f" The model emits {st.lobes_all} lobes; the lobe budget (`{st.budget}`) merged them into "
+              f"{len(st.closures)} closures." if st is not None else "")
     out = ["## Closures", "",
-           "`BSDF` is a sum of lobes, each a standard-library closure with a colour weight:", ""]
-    for k, kind, _ in lobes:
-        out.append(f"- lobe {k}, `{kind}`: {lobe_kinds.kind(kind).description}")
+           "`BSDF` is a sum of closures, each a standard-library closure with a colour weight, skipped where "
+           f"its weight is zero.{merged}", ""]
+    for k, c in enumerate(shader.closures):
+        out.append(f"- closure {k}, `{c.kind}` ({c.label}): {lobe_kinds.kind(c.kind).description}")
     out += [
         "",
         f"Closures called: {', '.join(f'`{c}`' for c in closures)} (as declared in `stdosl.h`). A lobe's "
@@ -243,12 +203,12 @@ def _closures_section(src: str) -> list[str]:
     return out
 
 
-def readme(stack, src: str, model_name: str, target: str, shader_file: str, picked: bool = False) -> str:
-    """The README of a bundle: shader ``src`` (as written to ``shader_file``) of ``stack`` under
-    the model ``model_name`` (``picked``: chosen by "auto"), for the view ``target``."""
+def readme(stack, shader: OslShader, model_name: str, target: str, shader_file: str, picked: bool = False) -> str:
+    """The README of a bundle: ``shader`` (as written to ``shader_file``) of ``stack`` under the
+    model ``model_name`` (``picked``: chosen by "auto"), for the view ``target``."""
     stack = Stack.coerce(stack)
-    name = shader_name(src)
-    params = shader_parameters(src)
+    name = shader.name
+    params = list(shader.declared)
     lut_default = next((p.default.strip('"') for p in params if p.name == "lut_dir"), TABLES_DIR)
     n = len(stack.coats)
     layers = f"{n} coat{'s' if n != 1 else ''} over a {stack.base.type} base"
@@ -270,8 +230,8 @@ def readme(stack, src: str, model_name: str, target: str, shader_file: str, pick
         "```",
         "",
         *_view_section(target),
-        *_tables_section(table_files(src), lut_default),
-        *_closures_section(src),
+        *_tables_section(list(shader.tables), lut_default),
+        *_closures_section(shader),
         "## Parameters",
         "",
         "Every input and the output of the shader, layer by layer from the top coat. Defaults are the "
@@ -279,7 +239,7 @@ def readme(stack, src: str, model_name: str, target: str, shader_file: str, pick
         "parameters are the fields of the stack format (coat 0 is the top coat). Roughness parameters "
         "(`*_alpha`, `*_alpha_x`, `*_alpha_y`) are GGX alpha, that is Blender's roughness squared; "
         "rotations are in radians. Whether a layer is anisotropic, absorbing or scattering is part of "
-        "the shader's structure: a parameter absent here needs a new export.",
+        "the shader's structure. " + _live_note(shader),
         "",
         "| name | type | default | description |",
         "|---|---|---|---|",
@@ -291,50 +251,66 @@ def readme(stack, src: str, model_name: str, target: str, shader_file: str, pick
     return "\n".join(lines)
 
 
+def _live_note(shader: OslShader) -> str:
+    baked = sorted(set(shader.params) - set(shader.live))
+    if not baked:
+        return "Every layer parameter is an input."
+    return (f"{len(baked)} of the {len(shader.params)} layer parameters are baked into the shader's table "
+            "(their values are the stack's above); to make one an input, export again with "
+            "`lamella export-osl ... --live NAME` (or `--live all`).")
+
+
 # ---------------------------------------------------------------- the bundle
 def write_bundle(stack, out_dir, model: str = "auto", target: str = "cycles", *, file_name: str | None = None,
-                 lut_dir: str | Path | None = None) -> Path:
+                 lut_dir: str | Path | None = None, live=(), budget="auto") -> Path:
     """Write the bundle of ``stack`` into ``out_dir`` (created) and return the shader's path.
 
     ``target``: the view convention (``osl.VIEW_TARGETS``); ``file_name``: the shader file's name
     (default ``lamella_<stack name>.osl``); the shader is named after its stem, as ``oslc`` names
-    the compiled ``.oso`` after the shader; ``lut_dir``: the default of the shader's ``lut_dir``
-    parameter (default ``"luts"``, the bundle's own table folder, relative). The tables the
-    shader reads are copied into ``out_dir/luts`` whatever ``lut_dir`` is. Files already in
-    ``out_dir`` that the bundle does not write are left alone."""
+    the compiled ``.oso`` after the shader; ``live``: the parameters that stay inputs (names, or
+    ``"all"``), the others baked into the shader's table; ``budget``: the lobe budget
+    (``lobe_budget.BUDGETS``); ``lut_dir``: the default of the shader's ``lut_dir`` parameter
+    (default ``"luts"``, the bundle's own table folder, relative). The tables the shader reads are
+    copied into ``out_dir/luts`` whatever ``lut_dir`` is. Files already in ``out_dir`` that the
+    bundle does not write are left alone."""
     if target not in VIEW_TARGETS:
         raise ValueError(f"unknown target {target!r}: expected one of {', '.join(VIEW_TARGETS)}")
     stack = Stack.coerce(stack)
     out_dir = Path(out_dir)
     if file_name is None:
-        shader = _identifier(f"lamella_{stack.name or 'stack'}")
-        file_name = f"{shader}.osl"
+        name = _identifier(f"lamella_{stack.name or 'stack'}")
+        file_name = f"{name}.osl"
     else:
-        shader = _identifier(Path(file_name).stem)
+        name = _identifier(Path(file_name).stem)
     model_name = resolve(model, stack).name
-    # the fully traced shader until the bundle describes itself from the staged IR
-    src = emit_osl(stack, model=model, name=shader, lut_dir=lut_dir if lut_dir else TABLES_DIR, view=target, staged=False)
-    files = table_files(src)
-    missing = [f for f in files if not (luts.DATA_DIR / f).exists()]
+    if live == "all":
+        from .closures import trace_closures
+
+        live = tuple(trace_closures(stack, model).tracer.params)
+    shader = osl_shader(stack, model, name, lut_dir if lut_dir else TABLES_DIR, target, tuple(live), budget,
+                        declare="live")
+    missing = [f for f in shader.tables if not (luts.DATA_DIR / f).exists()]
     if missing:
         raise FileNotFoundError(f"look-up tables {', '.join(missing)} are missing from {luts.DATA_DIR}: "
                                 "run `lamella luts` to generate them")
-    (out_dir / TABLES_DIR).mkdir(parents=True, exist_ok=True)
-    for f in files:
+    if shader.tables:
+        (out_dir / TABLES_DIR).mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for f in shader.tables:
         shutil.copyfile(luts.DATA_DIR / f, out_dir / TABLES_DIR / f)
     shader_path = out_dir / file_name
-    shader_path.write_text(src)
-    (out_dir / README).write_text(readme(stack, src, model_name, target, file_name, picked=model == "auto"))
+    shader_path.write_text(shader.source)
+    (out_dir / README).write_text(readme(stack, shader, model_name, target, file_name, picked=model == "auto"))
     return shader_path
 
 
 def bundle_files(shader_path: Path) -> list[Path]:
     """The files of the bundle whose shader is ``shader_path``: the shader, the README and the
-    tables it reads."""
+    tables beside it."""
     shader_path = Path(shader_path)
-    src = shader_path.read_text()
-    return [shader_path, shader_path.parent / README] + [shader_path.parent / TABLES_DIR / f for f in table_files(src)]
+    tables = sorted((shader_path.parent / TABLES_DIR).glob("*.exr"))
+    return [shader_path, shader_path.parent / README] + tables
 
 
-__all__ = ["write_bundle", "bundle_files", "readme", "table_files", "shader_parameters", "shader_name",
-           "describe_parameter", "ShaderParam", "TABLES_DIR", "README", "VIEW_TARGETS"]
+__all__ = ["write_bundle", "bundle_files", "readme", "describe_parameter", "ShaderParam", "TABLES_DIR", "README",
+           "VIEW_TARGETS"]

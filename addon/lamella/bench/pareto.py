@@ -1,0 +1,337 @@
+"""`lamella bench pareto`: run time against error, for every way Lamella renders a stack and for
+the brute-force reference.
+
+For each suite stack, in the canonical ``sphere-env`` at the stored references' resolution, each
+*variant* renders at a ladder of samples per pixel:
+
+- ``osl all``: the staged OSL shader with every lobe; ``osl auto`` and ``osl K``: its lobes merged
+  to the automatic budget and to K closures (``lobe_budget``);
+- ``nodes svm``: the staged node group in Cycles without OSL (what GPUs run); ``nodes eevee``: the
+  same group in EEVEE (its frame: the second render of the material, the first compiles it);
+- ``principled``: the Principled BSDF stand-in (Cycles, OSL on), the time unit;
+- ``brute force``: the stack built as nested interface spheres (``reference_scene``), path traced,
+  seeded apart from the stored references' chunks.
+
+Time is each render's wall time divided by the Principled stand-in's at the same samples, in the
+same run (so the ratio, not the machine, is what carries over); error is RMSE, mean ΔE00 and mean
+FLIP over the sphere against the stored converged reference (``tests/references/images``), whose
+own noise (``noise_rmse`` in its index) is a floor no variant can go under. From these:
+
+- a Pareto plot per stack (error against time, one line per variant over the sample ladder);
+- cost against the number of coats (1 to 8 clear coats over gold) and against the optical depth of
+  a scattering coat (flat is the aim: the staged shader's cost is its closures, not the model);
+- an equal-time view: at the time of ``osl auto``'s largest sample count, the brute force's error
+  interpolated on its own curve (log-log), and the time the brute force needs to reach ``osl
+  auto``'s error (extrapolated at the Monte Carlo rate, error^2 - floor^2 proportional to 1/time,
+  where its ladder does not reach it).
+
+``--quick`` (what the test suite runs): two stacks, 64 px against the references averaged 2x2,
+two sample counts, the cost sweeps on three sizes.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..core import suite
+from ..core.stack import Stack
+from . import BENCH_DIR
+from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
+
+REFERENCE_SEED = 7919  # far from the seeds of the stored references' chunks (0, 1, ...)
+
+
+@dataclass(frozen=True)
+class Variant:
+    label: str
+    engine: str  # render.ENGINES
+    budget: object = "auto"
+
+
+VARIANTS = (Variant("principled", "principled"), Variant("osl all", "cycles-osl", "all"),
+            Variant("osl auto", "cycles-osl"), Variant("osl 1", "cycles-osl", 1), Variant("osl 2", "cycles-osl", 2),
+            Variant("nodes svm", "cycles-nodes"), Variant("nodes eevee", "eevee"),
+            Variant("brute force", "reference"))
+
+
+@dataclass(frozen=True)
+class Settings:
+    cases: tuple
+    res: int
+    ladder: tuple
+    brute_ladder: tuple
+    coats: tuple
+    depths: tuple
+    cost_spp: int
+    variants: tuple = VARIANTS
+
+
+FULL = Settings(cases=tuple(suite.names()), res=RES, ladder=(4, 16, 64, 256), brute_ladder=(16, 64, 256, 1024),
+                coats=(1, 2, 4, 6, 8), depths=(0.1, 1.0, 4.0, 16.0), cost_spp=128)
+QUICK = Settings(cases=("gold_coated", "fog_g09_d1"), res=64, ladder=(4, 16), brute_ladder=(16, 64), coats=(1, 4, 8),
+                 depths=(0.1, 4.0), cost_spp=16)
+
+
+@dataclass
+class Curve:
+    """One variant's points on one stack: (samples, time ratio, seconds, errors)."""
+
+    variant: str
+    points: list = field(default_factory=list)
+
+
+# ---------------------------------------------------------------- rendering
+def _reference(name: str, res: int) -> np.ndarray:
+    """The stored reference of ``name`` at ``res`` (box-averaged down from the stored size)."""
+    from ..core.exr import read_rgba
+
+    ref = read_rgba(IMAGE_REFERENCE_DIR / f"{name}.exr").astype(np.float64)
+    k = ref.shape[0] // res
+    if k * res != ref.shape[0]:
+        raise ValueError(f"resolution {res} does not divide the reference's {ref.shape[0]}")
+    return ref.reshape(res, k, res, k, 4).mean((1, 3)) if k > 1 else ref
+
+
+def render_variant(stack: Stack, v: Variant, res: int, spp: int, seed: int = 0):
+    """(image, seconds) of one render; EEVEE's is its second render (the first compiles)."""
+    from ..blender.reference_scene import SHELL_THICKNESS, build_reference
+    from ..blender.render import assign_material, build_scene, render_scene
+
+    sc, sphere = build_scene("sphere-env", res, spp, seed=seed)
+    if v.engine == "reference":
+        build_reference(sc, sphere, stack, SHELL_THICKNESS)
+    else:
+        assign_material(sphere, stack, v.engine, budget=v.budget)
+    if v.engine.startswith("eevee"):
+        render_scene(sc)
+    return render_scene(sc)
+
+
+def _errors(img, ref, mask) -> dict:
+    from ..core.image_metrics import mean_delta_e00, mean_flip, rmse
+
+    return {"rmse": rmse(img, ref, mask), "delta_e00": mean_delta_e00(img, ref, mask), "flip": mean_flip(img, ref, mask)}
+
+
+def stack_curves(name: str, s: Settings, bar=None) -> dict:
+    """Every variant of ``s`` on suite stack ``name`` at each sample count: the Principled stand-in
+    first at each count, so each ratio's two renders are neighbours in time."""
+    stack = suite.load(name)
+    ref = _reference(name, s.res)
+    mask = sphere_mask(ref)
+    curves = {v.label: Curve(v.label) for v in s.variants}
+    ladders = {v.label: (s.brute_ladder if v.engine == "reference" else s.ladder) for v in s.variants}
+    principled = {}
+    for spp in sorted({n for lad in ladders.values() for n in lad}):
+        base_img, principled[spp] = render_variant(stack, Variant("principled", "principled"), s.res, spp)
+        for v in s.variants:
+            if spp not in ladders[v.label]:
+                continue
+            if v.engine == "principled":
+                img, sec = base_img, principled[spp]
+            else:
+                img, sec = render_variant(stack, v, s.res, spp, seed=REFERENCE_SEED if v.engine == "reference" else 0)
+            curves[v.label].points.append({"spp": spp, "seconds": sec, "x_principled": sec / principled[spp],
+                                           **_errors(img, ref, mask)})
+            if bar is not None:
+                bar.update(1)
+    index = load_index()["cases"][name]
+    return {"stack": name, "noise_rmse": index["noise_rmse"] * (s.res / index["res"]),
+            "curves": {k: c.points for k, c in curves.items()}}
+
+
+# ---------------------------------------------------------------- cost sweeps
+def _coats_stack(n: int) -> Stack:
+    coat = {"type": "coat", "ior": 1.5, "roughness": 0.05}
+    return Stack.from_dict({"name": f"{n} coats", "layers": [dict(coat, roughness=0.02 + 0.03 * k) for k in range(n)],
+                            "base": {"type": "conductor", "eta": [0.18, 0.42, 1.37], "k": [3.42, 2.35, 1.77],
+                                     "roughness": 0.1}})
+
+
+def _depth_stack(depth: float) -> Stack:
+    return Stack.from_dict({"name": f"fog d{depth:g}", "layers": [
+        {"type": "coat", "ior": 1.3, "roughness": 0.1, "thickness": depth, "sigma_s": [1.0, 1.0, 1.0],
+         "sigma_a": [0.02, 0.05, 0.1], "g": 0.6}],
+        "base": {"type": "conductor", "eta": [0.18, 0.42, 1.37], "k": [3.42, 2.35, 1.77], "roughness": 0.1}})
+
+
+COST_VARIANTS = (Variant("osl auto", "cycles-osl"), Variant("nodes svm", "cycles-nodes"), Variant("nodes eevee", "eevee"))
+COST_REFERENCE = {"cycles-osl": "principled", "cycles-nodes": "principled-svm", "eevee": "eevee-principled"}
+
+
+def cost_sweep(stacks: list[tuple[float, Stack]], s: Settings, bar=None) -> list[dict]:
+    """Render-time ratio to the Principled stand-in (in the same shading system) of each staged
+    variant on each stack, with the closures it kept."""
+    from ..core.backends.staging import stage
+
+    rows = []
+    for x, stack in stacks:
+        row = {"x": x, "closures": len(stage(stack).closures)}
+        for v in COST_VARIANTS:
+            _, ref = render_variant(stack, Variant("ref", COST_REFERENCE[v.engine]), s.res, s.cost_spp)
+            _, sec = render_variant(stack, v, s.res, s.cost_spp)
+            row[v.label] = sec / ref
+            if bar is not None:
+                bar.update(1)
+        rows.append(row)
+    return rows
+
+
+# ---------------------------------------------------------------- equal time
+def _loglog(xs, ys, x):
+    """y at x on the piecewise log-log line through (xs, ys) (xs increasing), extended by the end
+    segments."""
+    lx, ly = np.log(xs), np.log(ys)
+    if len(xs) == 1:
+        return float(ys[0])
+    k = int(np.clip(np.searchsorted(lx, math.log(x)) - 1, 0, len(xs) - 2))
+    t = (math.log(x) - lx[k]) / (lx[k + 1] - lx[k])
+    return float(math.exp(ly[k] + t * (ly[k + 1] - ly[k])))
+
+
+def equal_time(row: dict, ours: str = "osl auto", metric: str = "rmse") -> dict | None:
+    """Our error at our largest sample count, the brute force's at the same time ratio, and the
+    time ratio the brute force needs for our error (None: never, our error is below its floor)."""
+    mine, brute = row["curves"].get(ours), row["curves"].get("brute force")
+    if not mine or not brute:
+        return None
+    last = mine[-1]
+    t = np.array([p["x_principled"] for p in brute])
+    e = np.array([p[metric] for p in brute])
+    brute_then = _loglog(t, e, last["x_principled"])
+    floor = row["noise_rmse"] if metric == "rmse" else 0.0
+    goal = last[metric]
+    reached = [p["x_principled"] for p in brute if p[metric] <= goal]
+    if reached:
+        need = min(reached)
+    elif goal > floor:
+        # Monte Carlo: err^2 = floor^2 + c / t, c from the brute force's longest render
+        c = (e[-1] ** 2 - floor ** 2) * t[-1]
+        need = c / (goal ** 2 - floor ** 2) if c > 0 else None
+    else:
+        need = None
+    return {"ours": ours, "ours_x": last["x_principled"], "ours_error": goal, "brute_error_then": brute_then,
+            "brute_x_needed": need}
+
+
+# ---------------------------------------------------------------- the run
+def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bool = True) -> Path:
+    import bpy  # noqa: F401  (the renders)
+    from tqdm import tqdm
+
+    s = QUICK if quick else FULL
+    if cases:
+        s = Settings(**{**s.__dict__, "cases": tuple(cases)})
+    n_renders = len(s.cases) * (sum(len(s.brute_ladder if v.engine == "reference" else s.ladder) for v in s.variants)
+                                + len(s.ladder))
+    n_renders += (len(s.coats) + len(s.depths)) * len(COST_VARIANTS)
+    with tqdm(total=n_renders, desc="pareto renders", disable=not progress, unit="render") as bar:
+        rows = [stack_curves(name, s, bar) for name in s.cases]
+        coats = cost_sweep([(n, _coats_stack(n)) for n in s.coats], s, bar)
+        depths = cost_sweep([(d, _depth_stack(d)) for d in s.depths], s, bar)
+    data = {"settings": {"res": s.res, "ladder": s.ladder, "brute_ladder": s.brute_ladder, "cost_spp": s.cost_spp,
+                         "quick": quick},
+            "stacks": rows, "coats": coats, "depths": depths,
+            "equal_time": [dict(stack=r["stack"], **et) for r in rows if (et := equal_time(r)) is not None]}
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = "pareto_quick" if quick else "pareto"
+    (out_dir / f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n")
+    plots = write_plots(data, out_dir / "plots", stem)
+    path = out_dir / f"{stem}.md"
+    path.write_text(format_markdown(data, {k: p.relative_to(out_dir).as_posix() for k, p in plots.items()}))
+    return path
+
+
+def write_plots(data: dict, plot_dir: Path, stem: str) -> dict:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plots import save_figure
+
+    rows = data["stacks"]
+    cols = min(4, len(rows))
+    nrows = -(-len(rows) // cols)
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.2 * cols, 2.6 * nrows), squeeze=False)
+    for ax, r in zip(axes.flat, rows):
+        for label, pts in r["curves"].items():
+            if pts:
+                ax.plot([p["x_principled"] for p in pts], [p["rmse"] for p in pts], "o-" if label != "brute force" else "s--",
+                        ms=3, lw=1, label=label)
+        ax.axhline(r["noise_rmse"], color="0.6", lw=0.8, ls=":")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(r["stack"], fontsize=8)
+        ax.tick_params(labelsize=6)
+    for ax in list(axes.flat)[len(rows):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=5)
+    fig.supxlabel("render time / Principled's at the same samples", fontsize=8)
+    fig.supylabel("RMSE against the converged reference (dotted: its own noise)", fontsize=8)
+    out = {"pareto": save_figure(fig, plot_dir / f"{stem}_fronts.png")}
+
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3))
+    for ax, key, xlabel, logx in ((axes[0], "coats", "clear coats over gold", False),
+                                  (axes[1], "depths", "optical depth of a scattering coat", True)):
+        rows_ = data[key]
+        for v in COST_VARIANTS:
+            ax.plot([r["x"] for r in rows_], [r[v.label] for r in rows_], "o-", ms=3, label=v.label)
+        ax.axhline(1.0, color="0.6", lw=0.8, ls=":")
+        ax.set_xlabel(xlabel, fontsize=8)
+        if logx:
+            ax.set_xscale("log")
+        ax.set_ylim(0, max(2.5, max(r[v.label] for r in rows_ for v in COST_VARIANTS) * 1.1))
+        ax.tick_params(labelsize=7)
+    axes[0].set_ylabel("time / Principled (same shading system)", fontsize=8)
+    axes[0].legend(fontsize=6)
+    out["cost"] = save_figure(fig, plot_dir / f"{stem}_cost.png")
+    return out
+
+
+def format_markdown(data: dict, plots: dict) -> str:
+    st = data["settings"]
+    lines = [
+        "# Run time against error",
+        "",
+        f"Generated by `lamella bench pareto{' --quick' if st['quick'] else ''}` (`lamella/bench/pareto.py`): "
+        f"`sphere-env`, {st['res']} px, samples {', '.join(map(str, st['ladder']))} "
+        f"(brute force {', '.join(map(str, st['brute_ladder']))}); time is each render's wall time over the "
+        "Principled stand-in's at the same samples in the same run (Cycles, OSL on); error against the stored "
+        "converged nested-sphere reference, over the sphere. *floor*: the reference's own noise (RMSE).",
+        "",
+        f"![Pareto fronts]({plots['pareto']})",
+        "",
+        "## At the largest sample count",
+        "",
+        "| stack | floor | " + " | ".join(data["stacks"][0]["curves"]) + " |",
+        "|---|---:|" + "---:|" * len(data["stacks"][0]["curves"]),
+    ]
+    for r in data["stacks"]:
+        cells = []
+        for pts in r["curves"].values():
+            p = pts[-1] if pts else None
+            cells.append(f"{p['rmse']:.4f} / {p['delta_e00']:.2f} / {p['flip']:.3f} @ {p['x_principled']:.2f}x"
+                         if p else "")
+        lines.append(f"| {r['stack']} | {r['noise_rmse']:.4f} | " + " | ".join(cells) + " |")
+    lines += ["", "Cells: RMSE / mean ΔE00 / mean FLIP @ time ratio.", "",
+              "## Equal time: the staged shader (`osl auto`) against brute force", "",
+              "| stack | ours: time | ours: RMSE | brute force's RMSE in that time | time brute force needs |",
+              "|---|---:|---:|---:|---:|"]
+    for e in data["equal_time"]:
+        need = f"{e['brute_x_needed']:.0f}x" if e["brute_x_needed"] is not None else "never (below its floor)"
+        lines.append(f"| {e['stack']} | {e['ours_x']:.2f}x | {e['ours_error']:.4f} | {e['brute_error_then']:.4f} | {need} |")
+    lines += ["", "## Cost against stack size", "", f"![Cost]({plots['cost']})", "",
+              f"{st['cost_spp']} samples; time over the Principled stand-in's in the same shading system.", "",
+              "| stack | closures | " + " | ".join(v.label for v in COST_VARIANTS) + " |",
+              "|---|---:|" + "---:|" * len(COST_VARIANTS)]
+    for key, fmt in (("coats", "{:g} clear coats over gold"), ("depths", "scattering coat, optical depth {:g}")):
+        for r in data[key]:
+            lines.append(f"| {fmt.format(r['x'])} | {r['closures']} | "
+                         + " | ".join(f"{r[v.label]:.2f}" for v in COST_VARIANTS) + " |")
+    return "\n".join(lines) + "\n"
