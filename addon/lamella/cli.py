@@ -338,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lut-dir", help="absolute folder of the EXR tables baked in as the shader's lut_dir "
                                      "(default: 'luts', the bundle's copy, relative)")
     p.add_argument("--live", action="append", default=[], metavar="NAME[,NAME...]",
-                   help="a shader parameter that stays an input (e.g. coat0_alpha, for a texture); 'all' for "
+                   help="a shader input that stays an input (e.g. coat0_roughness, for a texture); 'all' for "
                         "every parameter; the others are baked into the shader's table (default: none)")
     p.add_argument("--budget", default="auto", help="lobe budget: auto (default), all, or 1 to 8 closures")
     p.set_defaults(fn=cmd_export_osl)

@@ -94,15 +94,15 @@ def test_user_nodes_stay_and_linked_textures_survive_recompiles(addon):
     api.apply_stack(mat, suite.load("gold_coated"))
     script = nt.nodes[material_nodes.SCRIPT]
     tex = nt.nodes.new("ShaderNodeTexNoise")
-    nt.links.new(tex.outputs["Fac"], script.inputs["coat0_alpha"])
+    nt.links.new(tex.outputs["Fac"], script.inputs["coat0_roughness"])
     mat.lamella.coats[0].coat.ior = 1.7  # a value edit
     recompile.flush()
     mat.lamella.base.conductor.roughness = 0.5  # and another
     recompile.flush()
     assert user <= {n.name for n in nt.nodes}
-    assert script.inputs["coat0_alpha"].is_linked and script.inputs["coat0_alpha"].links[0].from_node == tex
+    assert script.inputs["coat0_roughness"].is_linked and script.inputs["coat0_roughness"].links[0].from_node == tex
     assert abs(script.inputs["coat0_ior"].default_value - 1.7) < 1e-6
-    assert abs(script.inputs["base_alpha"].default_value - 0.25) < 1e-6
+    assert abs(script.inputs["base_roughness"].default_value - 0.5) < 1e-6  # the panel's r
 
 
 def test_edits_schedule_and_the_render_flushes_them(addon, scene):
@@ -114,7 +114,7 @@ def test_edits_schedule_and_the_render_flushes_them(addon, scene):
     assert mat.lamella.status == "PENDING" and mat.name_full in recompile.pending()
     rough = render(sc)  # render_pre compiles the pending edit first
     assert mat.lamella.status == "OK" and not recompile.pending()
-    assert abs(mat.node_tree.nodes[material_nodes.SCRIPT].inputs["base_alpha"].default_value - 0.81) < 1e-5
+    assert abs(mat.node_tree.nodes[material_nodes.SCRIPT].inputs["base_roughness"].default_value - 0.9) < 1e-5
     assert np.abs(rough - dark).mean() > 1e-3
 
 

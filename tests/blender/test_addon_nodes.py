@@ -71,7 +71,7 @@ def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):
     d["layers"][0]["roughness"] = 0.2
     api.apply_stack(mat, d)
     assert group.node_tree is tree and tree[material_nodes.STRUCTURE_KEY] == key, "a value edit keeps the group"
-    assert group.inputs["coat0_alpha"].default_value == pytest.approx(0.2)
+    assert group.inputs["coat0_roughness"].default_value == pytest.approx(0.2 ** 0.5)  # Blender's r
     d["layers"].append({"type": "coat", "ior": 1.4, "roughness": 0.05})
     api.apply_stack(mat, d)
     assert tree[material_nodes.STRUCTURE_KEY] != key and group.node_tree is tree, "rebuilt in place"
@@ -154,3 +154,47 @@ def test_the_group_shows_no_unlinked_value_inside_its_math(addon):
              if n.bl_idname not in ("NodeGroupInput", "NodeGroupOutput")
              for s in n.inputs if not s.is_linked and not s.hide_value]
     assert not shown, shown[:5]
+
+
+@pytest.mark.parametrize("case,socket,value", [
+    ("gold_coated", "coat0_roughness", None),   # roughness as Blender's r (alpha = r^2)
+    ("varnished_wood", "base_albedo", None),    # an RGB field as one colour socket
+])
+def test_sockets_speak_the_panels_units(addon, case, socket, value):
+    """A node linked into a socket with the stack's own value, in the panel's units (Blender's
+    roughness r, a colour), renders what the unlinked material renders, in Cycles with OSL and
+    with the node group (the linked parameter is read live, the rest from the table), and the
+    Script node shows no internal input."""
+    import bpy
+
+    sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
+    sc.cycles.filter_width = 0.01
+    mat = new_material(sphere)
+    stack = suite.load(case)
+    api.apply_stack(mat, stack)
+    script = mat.node_tree.nodes[material_nodes.SCRIPT]
+    assert "lut_dir" not in script.inputs or script.inputs["lut_dir"].hide
+    baked = {}
+    for osl in (True, False):
+        sc.cycles.shading_system = osl
+        baked[osl] = render(sc)
+    nt = mat.node_tree
+    sock = script.inputs[socket]
+    if sock.type == "RGBA":
+        src = nt.nodes.new("ShaderNodeRGB")
+        src.outputs[0].default_value = (*stack.base.albedo, 1.0)
+    else:
+        src = nt.nodes.new("ShaderNodeValue")
+        src.outputs[0].default_value = stack.coats[0].roughness[0] ** 0.5
+    for node in (script, nt.nodes[material_nodes.GROUP]):
+        nt.links.new(src.outputs[0], node.inputs[socket])
+    recompile.compile_material(mat)  # a link is a structure edit
+    assert mat.lamella.live_params == socket
+    for osl in (True, False):
+        sc.cycles.shading_system = osl
+        live = render(sc)
+        a, b = baked[osl][..., :3], live[..., :3]
+        assert a.max() > 0.05
+        rel_l1 = np.abs(b - a).sum() / a.sum()
+        assert rel_l1 < 5e-3, (osl, rel_l1)  # baked against traced: <= 0.5 % (bench staging)
+    bpy.data.materials.remove(mat)

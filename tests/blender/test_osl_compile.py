@@ -56,7 +56,7 @@ def test_script_node_gets_sockets_and_keeps_the_source():
     osl_compile.assign_script(node, text, src, "rotated_30")
     assert node.mode == "INTERNAL" and node.script.as_string().rstrip() == src.rstrip()
     assert node.bytecode and node.bytecode_hash
-    assert {"coat0_ior", "coat0_alpha_x", "coat0_rotation", "base_eta_r", "Tangent"} <= set(node.inputs.keys())
+    assert {"coat0_ior", "coat0_roughness_x", "coat0_rotation", "base_eta", "Tangent"} <= set(node.inputs.keys())
     assert "BSDF" in node.outputs
     with pytest.raises(osl_compile.OSLCompileError):
         osl_compile.assign_script(node, text, BROKEN, "broken")

@@ -38,8 +38,8 @@ def _compile(osl, oso):
 def _roughness_inputs(prefix, roughness):
     """An isotropic layer has one roughness input and no rotation; an anisotropic one has three."""
     if roughness[0] == roughness[1]:
-        return {f"{prefix}_alpha"}
-    return {f"{prefix}_alpha_x", f"{prefix}_alpha_y", f"{prefix}_rotation"}
+        return {f"{prefix}_roughness"}
+    return {f"{prefix}_roughness_x", f"{prefix}_roughness_y", f"{prefix}_rotation"}
 
 
 @pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "three_coats", "tinted_varnish", "four_coats"])
@@ -54,7 +54,7 @@ def test_exported_shader_compiles(tmp_path, case):
         assert f"coat{i}_ior" in names
         assert _roughness_inputs(f"coat{i}", c.roughness) <= names
         assert (f"coat{i}_thickness" in names) == c.has_absorption
-    assert {"base_eta_r", "base_k_b", "Tangent", "lut_dir", "BSDF"} <= names
+    assert {"base_eta", "base_k", "Tangent", "lut_dir", "BSDF"} <= names
     assert _roughness_inputs("base", stack.base.roughness) <= names
 
 
@@ -69,12 +69,12 @@ def test_a_default_export_is_staged_and_its_inputs_are_what_stays_live(tmp_path)
     assert not (baked.parent / TABLES_DIR).exists()
     assert "float MT[" in baked.read_text() and "baked into the shader's table" in (baked.parent / README).read_text()
     live = tmp_path / "live" / "s.osl"
-    r = _cli("gold_coated", "-o", str(live), "--live", "coat0_alpha", "--budget", "all")
+    r = _cli("gold_coated", "-o", str(live), "--live", "coat0_roughness", "--budget", "all")
     assert r.returncode == 0, r.stderr
     names = {p.name for p in _compile(live, tmp_path / "live.oso")}
-    assert {"coat0_alpha", "Normal", "Tangent", "BSDF"} <= names and "coat0_ior" not in names
-    r = _cli("gold_coated", "-o", str(tmp_path / "bad"), "--live", "coat7_alpha")
-    assert r.returncode == 2 and "coat7_alpha" in r.stderr
+    assert {"coat0_roughness", "Normal", "Tangent", "BSDF"} <= names and "coat0_ior" not in names
+    r = _cli("gold_coated", "-o", str(tmp_path / "bad"), "--live", "coat7_roughness")
+    assert r.returncode == 2 and "coat7_roughness" in r.stderr
 
 
 @pytest.mark.parametrize("target", VIEW_TARGETS)

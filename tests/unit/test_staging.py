@@ -41,8 +41,19 @@ def test_a_linked_parameter_stays_live_and_reads_its_socket():
     want = api.evaluate(Stack.from_dict(d), wi, wo)
     got = staging.evaluate_staged(st, wi, wo, values={"coat0_alpha": np.float32(0.3)})
     assert np.abs(got - want).sum() / want.sum() < 0.005
-    with pytest.raises(ValueError, match="not a parameter"):
+    with pytest.raises(ValueError, match="not an input"):
         staging.stage(stack, live=["coat7_alpha"])
+
+
+def test_live_inputs_are_named_by_socket_or_parameter():
+    """A material links sockets (the panel's units: roughness r, one colour socket per RGB field);
+    linking one makes the parameters it feeds live, the same as naming them."""
+    stack = suite.load("gold_coated")
+    by_socket = staging.stage(stack, live=["coat0_roughness", "base_eta"])
+    by_param = staging.stage(stack, live=["coat0_alpha", "base_eta_r", "base_eta_g", "base_eta_b"])
+    assert by_socket.live == by_param.live == ("base_eta_b", "base_eta_g", "base_eta_r", "coat0_alpha")
+    assert by_socket.live_sockets == ("base_eta", "coat0_roughness")
+    assert by_socket.structure_key() == by_param.structure_key()
 
 
 def test_budgets():

@@ -1,5 +1,6 @@
-"""`lamella bench osl-cost`: what each feature of a stack costs in the generated OSL shader
-(issue 3, "skip what the scene does not need").
+"""`lamella bench osl-cost`: what each feature of a stack costs in the fully traced OSL shader
+(every parameter live: what a material pays for the part of its model that linked textures
+reach; an untextured material is staged to a table instead, ``bench/staging.md``).
 
 A one-coat isotropic stack, then the same with each feature added in turn: anisotropy, a rotated
 anisotropic coat, an absorbing coat, and four coats. For each: generated source lines, live graph
@@ -55,7 +56,7 @@ def feature_ladder() -> list[tuple[str, Stack, str]]:
 def static_cost(stack: Stack, model: str = "auto") -> dict:
     from ..core.backends.osl import emit_osl
 
-    src = emit_osl(stack, model)
+    src = emit_osl(stack, model, staged=False)
     body = src[src.index("\nshader "):]
     return {
         "lines": len(src.splitlines()),
@@ -99,7 +100,8 @@ def run(out_dir: Path = BENCH_DIR, repeats: int = REPEATS, progress=print) -> tu
     # interleave engines and stacks so machine load drifts hit all of them alike
     for r in range(repeats):
         for row, (label, stack, model) in zip(rows, ladder):
-            _, t = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="cycles-osl", model=model)
+            _, t = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="cycles-osl", model=model,
+                                staged=False)
             _, tp = render_stack(stack, "sphere-env", res=RES, spp=SPP, engine="principled")
             row["seconds"].append(t)
             row["principled_seconds"].append(tp)

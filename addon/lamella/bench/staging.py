@@ -12,7 +12,8 @@ Two parts, written to ``bench/staging.md`` (and ``staging.json``):
 - **Render cost** (Blender): one coat over gold and eight coats with media in the canonical
   ``sphere-env``, median of interleaved renders in one process, as ratios to the Principled
   stand-in in the same shading system: the traced OSL shader, the staged OSL shader (budget
-  auto and all), the staged node group in Cycles without OSL (SVM), and the node counts.
+  auto and all), the staged node group rendered by Cycles with OSL on (which compiles it to OSL)
+  and without (SVM), the group in EEVEE, and the node counts.
 """
 from __future__ import annotations
 
@@ -120,20 +121,25 @@ COST_VARIANTS = (("principled (OSL)", "OSL", dict(engine="principled")),
                  ("traced OSL", "OSL", dict(engine="cycles-osl", staged=False)),
                  ("staged OSL, auto", "OSL", dict(engine="cycles-osl")),
                  ("staged OSL, all lobes", "OSL", dict(engine="cycles-osl", budget="all")),
+                 ("staged nodes (OSL on), auto", "OSL", dict(engine="cycles-nodes", osl=True)),
                  ("principled (SVM)", "SVM", dict(engine="principled-svm")),
                  ("staged nodes (SVM), auto", "SVM", dict(engine="cycles-nodes")),
                  ("principled (EEVEE)", "EEVEE", dict(engine="eevee-principled")),
                  ("staged nodes (EEVEE), auto", "EEVEE", dict(engine="eevee")))
 
 
-def _timed_render(stack, engine, budget="auto", staged=True):
+def _timed_render(stack, engine, budget="auto", staged=True, osl=None):
     """(first render seconds, second render seconds) of ``stack`` in a fresh ``sphere-env``: the
     first includes what a renderer does once per material (OSL JIT, EEVEE's shader compile), the
-    second is a frame."""
+    second is a frame. ``osl``: Cycles' shading system forced on or off after the material is
+    assigned (the node group rendered by Cycles with OSL on: what a scene with OSL on and no
+    Script node runs)."""
     from ..blender.render import assign_material, build_scene, render_scene
 
     sc, sphere = build_scene("sphere-env", RES, SPP)
     assign_material(sphere, stack, engine, budget=budget, staged=staged)
+    if osl is not None:
+        sc.cycles.shading_system = osl
     _, first = render_scene(sc)
     _, second = render_scene(sc) if engine.startswith("eevee") else (None, first)
     return first, second

@@ -32,7 +32,7 @@ def apply_stack(material, stack, model: str | None = None):
     from . import material_nodes
 
     # parameters whose sockets are linked (a texture) stay live; the rest is baked
-    built = recompile.build_shader(stack, model, material_nodes.linked_params(material),
+    built = recompile.build_shader(stack, model, material_nodes.linked_sockets(material),
                                    material.lamella.lobe_budget)  # raises before anything changes
     with recompile.suspended():
         write_stack(settings, stack)

@@ -81,9 +81,9 @@ def shader_text(mat, script):
 NOT_PARAMS = ("Normal", "Tangent", "lut_dir")  # sockets of the Script node and group that are no model parameter
 
 
-def linked_params(mat) -> tuple:
-    """The model parameters whose sockets are linked in ``mat`` (on the Script node or the node
-    group): a staged shader reads them live and bakes every other value."""
+def linked_sockets(mat) -> tuple:
+    """The sockets linked in ``mat`` (on the Script node or the node group), sorted: a staged
+    shader reads their parameters live and bakes every other value."""
     nt = mat.node_tree
     if nt is None:
         return ()
@@ -103,9 +103,10 @@ def install_shader(mat, shader, oso_path, lut_dir: str) -> None:
 
     script, output, tangent = ensure_nodes(mat)
     text = shader_text(mat, script)
-    assign_compiled(script, text, shader.source, oso_path, shader.params)
-    if "lut_dir" in script.inputs:
+    assign_compiled(script, text, shader.source, oso_path, shader.socket_values)
+    if "lut_dir" in script.inputs:  # internal (the installation's tables): set, and hidden from the artist
         script.inputs["lut_dir"].default_value = lut_dir
+        script.inputs["lut_dir"].hide = True
     nt = mat.node_tree
     if not output.inputs["Surface"].is_linked:
         nt.links.new(script.outputs["BSDF"], output.inputs["Surface"])
@@ -175,7 +176,9 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
     import bpy
 
     from ..core.backends.node_graph import emit_plan, live_values
+    from ..core.backends.sockets import sockets
     from . import node_group
+    from .osl_compile import set_socket
 
     node, out = ensure_group_nodes(mat)
     nt = mat.node_tree
@@ -199,10 +202,10 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
     else:
         for image, pixels in plan.images.items():
             node_group.material_table_image(image, pixels)
-    for name, value in plan.params.items():
-        sock = node.inputs.get(name)
+    for sk in sockets(plan.params):
+        sock = node.inputs.get(sk.name)
         if sock is not None:
-            sock.default_value = value
+            set_socket(sock, sk.value)
     tangent = nt.nodes.get(TANGENT)
     if tangent is not None and "Tangent" in node.inputs and not node.inputs["Tangent"].is_linked:
         nt.links.new(tangent.outputs["Tangent"], node.inputs["Tangent"])

@@ -1,6 +1,6 @@
 """Build the node group of a stack from its node plan (``lamella.core.backends.node_graph``).
 
-The group ``Lamella <stack>`` has one float input per model parameter (named as the Script node's
+The group ``Lamella <stack>`` has one input per socket of the model (``core.backends.sockets``: roughness as Blender's r, a colour as one colour socket; named as the Script node's
 sockets, so textures plug in the same way), a ``Normal`` and a ``Tangent`` input (unlinked: the
 shading normal, and the tangent radial about the object's z, as in the OSL shader) and a ``BSDF``
 output. Inside it:
@@ -23,6 +23,8 @@ import bpy
 
 from ..core import luts
 from ..core.backends.node_graph import Out, Plan, input_name, partition
+from ..core.backends.sockets import by_param, sockets
+from .osl_compile import set_socket
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
 SECTION_PREFIX = ".lamella_section_"
@@ -314,11 +316,22 @@ def build_group(plan: Plan, name: str, tree=None):
     frame = _frame(g, gin, tangent_input=True, view_frame=plan.frame == "view")
     wi = frame[4]
     leaf_src = {}
+    convert = by_param(plan.params)
+    colours = {}
     for k, leaf in enumerate(plan.leaves):
         if leaf in ("wi_x", "wi_y", "wi_z"):
             leaf_src[-1 - k] = wi[("wi_x", "wi_y", "wi_z").index(leaf)]
+            continue
+        sk, ch = convert[leaf]  # the parameter from its socket (panel units)
+        sock = gin.outputs[sk.name]
+        if sk.convert == "square":
+            leaf_src[-1 - k] = g.math("MULTIPLY", sock, sock)
+        elif sk.convert == "channels":
+            if sk.name not in colours:
+                colours[sk.name] = g.node("ShaderNodeSeparateColor", {"mode": "RGB"}, {"Color": sock}).node
+            leaf_src[-1 - k] = colours[sk.name].outputs[ch]
         else:
-            leaf_src[-1 - k] = gin.outputs[leaf]
+            leaf_src[-1 - k] = sock
 
     sections = partition(plan)
     outs: dict[Out, object] = {}
@@ -384,11 +397,12 @@ def build_group(plan: Plan, name: str, tree=None):
 def _sync_interface(tree, plan: Plan):
     """Make the group's sockets the plan's parameters (sorted), Normal, Tangent and BSDF, keeping
     the sockets that stay (and so the links into them from the material)."""
-    want = [(k, "NodeSocketFloat") for k in sorted(plan.params)] + [("Normal", "NodeSocketVector"),
-                                                                     ("Tangent", "NodeSocketVector")]
+    shown = {sk.name: sk for sk in sockets(plan.params)}
+    want = [(sk.name, "NodeSocketColor" if sk.kind == "color" else "NodeSocketFloat") for sk in shown.values()]
+    want += [("Normal", "NodeSocketVector"), ("Tangent", "NodeSocketVector")]
     items = {(s.name, s.in_out): s for s in tree.interface.items_tree if s.item_type == "SOCKET"}
     for (nm, io), s in list(items.items()):
-        if io == "INPUT" and nm not in dict(want):
+        if io == "INPUT" and (nm not in dict(want) or s.socket_type != dict(want)[nm]):
             tree.interface.remove(s)
         elif io == "OUTPUT" and nm != "BSDF":
             tree.interface.remove(s)
@@ -399,8 +413,8 @@ def _sync_interface(tree, plan: Plan):
             s = _interface(tree, "INPUT", nm, typ)
         if typ == "NodeSocketVector":
             s.hide_value = True
-        elif nm in plan.params:
-            s.default_value = plan.params[nm]
+        elif nm in shown:
+            set_socket(s, shown[nm].value)
     if ("BSDF", "OUTPUT") not in items:
         _interface(tree, "OUTPUT", "BSDF", "NodeSocketShader")
     # order: parameters, Normal, Tangent

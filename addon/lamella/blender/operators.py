@@ -429,11 +429,11 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
         from ..core.backends.osl_bundle import write_bundle
         from . import api
 
-        from .material_nodes import linked_params
+        from .material_nodes import linked_sockets
 
         out = Path(self.filepath)
         shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
-                              target=self.target_convention, file_name=out.name, live=linked_params(mat),
+                              target=self.target_convention, file_name=out.name, live=linked_sockets(mat),
                               budget=mat.lamella.lobe_budget)
         self.report({"INFO"}, f"wrote {shader} and its tables")
 

@@ -105,6 +105,13 @@ def compile_source(source: str, name: str = "shader") -> Path:
     return oso
 
 
+def set_socket(sock, value) -> None:
+    """Set an input socket to ``value``: a float, or an RGB triple (a colour socket holds RGBA)."""
+    if isinstance(value, (tuple, list)) and len(value) == 3 and len(sock.default_value) == 4:
+        value = (*value, 1.0)
+    sock.default_value = value
+
+
 def assign_script(node, text, source: str, name: str = "shader", values: dict | None = None) -> None:
     """Make Script ``node`` run ``source``: INTERNAL mode on ``text`` (which receives the source),
     bytecode from the cache, one socket per shader parameter (Cycles' own socket rules), each
@@ -142,7 +149,7 @@ def assign_compiled(node, text, source: str, oso: Path, values: dict | None = No
             if param.isoutput or param.isclosure:
                 continue
             if param.name in values:
-                sock.default_value = values[param.name]
+                set_socket(sock, values[param.name])
             elif isinstance(param.value, str):  # the tables' folder
                 sock.default_value = param.value
     for sockets in (node.inputs, node.outputs):
@@ -162,4 +169,4 @@ def _update_sockets_in_cycles(node, values: dict, oso: Path) -> None:
         raise OSLCompileError(f"Cycles failed to read the compiled shader {oso}")
     for sock in node.inputs:
         if sock.name in values and hasattr(sock, "default_value"):
-            sock.default_value = values[sock.name]
+            set_socket(sock, values[sock.name])

@@ -246,7 +246,7 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
     closures: IntProperty(name="Closures", description="Closures the compiled shader uses")
     lobes_all: IntProperty(name="Lobes", description="Lobes the model emits for this stack")
     live_params: StringProperty(name="Live Parameters",
-                                description="Parameters linked to a texture: read by the shader, not baked")
+                                description="Inputs linked to a texture: read by the shader, not baked")
     status: EnumProperty(name="Status", items=STATUS, default="NONE")
     status_message: StringProperty(name="Message")
     compile_ms: FloatProperty(name="Compile Time", description="Milliseconds the last compile took")

@@ -174,7 +174,7 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     if shader.staged is not None:
         settings.closures = len(shader.staged.closures)
         settings.lobes_all = shader.staged.lobes_all
-    settings.live_params = ", ".join(shader.live)
+    settings.live_params = ", ".join(shader.live_sockets)
     settings.compiled_json = stack.to_json(indent=None)
     settings.status = "OK"
     settings.status_message = ""
@@ -198,7 +198,7 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
     t0 = time.perf_counter()
     try:
         stack = Stack.from_dict(stack_dict(settings))
-        built = build_shader(stack, settings.model, material_nodes.linked_params(mat), settings.lobe_budget)
+        built = build_shader(stack, settings.model, material_nodes.linked_sockets(mat), settings.lobe_budget)
     except (StackError, UnsupportedStack, OSLCompileError, ValueError) as e:
         settings.status = "ERROR"
         settings.status_message = str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0]
@@ -210,12 +210,12 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
 
 
 def links_changed(mat) -> bool:
-    """Whether the parameters linked in ``mat`` differ from those its shader reads live (a
+    """Whether the sockets linked in ``mat`` differ from those its shader reads live (a
     texture linked or unlinked since the last compile: a structure edit)."""
     from . import material_nodes
 
     s = mat.lamella
-    return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_params(mat)) != s.live_params
+    return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_sockets(mat)) != s.live_params
 
 
 # ---------------------------------------------------------------- handlers

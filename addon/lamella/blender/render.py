@@ -117,7 +117,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
         node = nt.nodes.new("ShaderNodeScript")
         name = f"lamella_{stack.name or 'stack'}.osl"
         shader = osl_shader(stack, model, budget=budget, staged=staged)
-        assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.params)
+        assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.socket_values)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine in ("cycles-nodes", "eevee"):
         from ..core.backends.node_graph import emit_plan

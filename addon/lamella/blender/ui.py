@@ -64,9 +64,10 @@ def draw_status(layout, context, mat) -> None:
         why = "Open Shading Language is off" if not sc.cycles.shading_system else "this GPU device runs no OSL"
         note, fix = f"Cycles renders the node group ({why}): the same image as the OSL shader.", True
         if s.node_live_values > SVM_STACK - SVM_HEADROOM:
-            note = (f"Cycles renders the node group ({why}), but this stack is too large for it "
-                    f"({s.node_live_values} live values, Cycles holds about {SVM_STACK - SVM_HEADROOM}): "
-                    "use Cycles with OSL on the CPU, or fewer coats.")
+            note = (f"Cycles renders the node group ({why}), but the part of it that reads the linked "
+                    f"inputs ({s.live_params or 'none'}) is too large for it ({s.node_live_values} live "
+                    f"values, Cycles holds about {SVM_STACK - SVM_HEADROOM}) and renders black: unlink an "
+                    "input (baked values cost nothing), or use Cycles with OSL on the CPU.")
             box.alert = True
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
         note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."

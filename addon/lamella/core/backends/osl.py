@@ -25,6 +25,7 @@ from pathlib import Path
 
 from .. import luts
 from .closures import trace_closures
+from .sockets import by_param, sockets
 from .trace import Expr, Tracer
 
 OSL_DIR = Path(__file__).resolve().parents[4] / "osl"
@@ -233,6 +234,17 @@ class OslShader:
     tables: tuple = ()  # the EXR files (relative to lut_dir) the shader reads, sorted
     closures: tuple = ()  # ShaderClosure of every closure, in order
 
+    @property
+    def socket_values(self) -> dict:
+        """Socket name -> its value in panel units (a float, or an RGB tuple for a colour)."""
+        return {sk.name: sk.value for sk in sockets(self.params)}
+
+    @property
+    def live_sockets(self) -> tuple:
+        """The sockets the shader reads (sorted): the linked ones of a staged shader, every one of
+        a fully traced shader."""
+        return self.staged.live_sockets if self.staged is not None else tuple(sk.name for sk in sockets(self.params))
+
 
 @dataclass(frozen=True)
 class ShaderParam:
@@ -311,8 +323,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
     live_names = tuple(st.live) if st is not None else tuple(sorted(all_params))
     lut_path = str(Path(lut_dir) if lut_dir else luts.DATA_DIR)
-    declared = [ShaderParam(_identifier(k), "float", _literal(v)) for k, v in sorted(all_params.items())
-                if declare == "all" or k in live_names]
+    declared = [_socket_param(sk) for sk in sockets(all_params)
+                if declare == "all" or any(k in live_names for k in sk.params)]
     declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
     if uses_tables:
         declared.append(ShaderParam("lut_dir", "string", f'"{lut_path}"'))
@@ -341,6 +353,14 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "    float wi_y = dot(V, Bn);",
         "    float wi_z = dot(V, Normal);",
     ]
+    conv = by_param(all_params)
+    read = {e.args[0] for e in t.live_nodes(outputs) if e.op == "param" and conv[e.args[0]][0].convert != "identity"}
+    if read:
+        body.append("    // the live parameters, from their sockets (roughness r: alpha = r * r)")
+    for k in sorted(read):
+        sk, ch = conv[k]
+        rhs = {"square": f"{sk.name} * {sk.name}", "identity": sk.name, "channels": f"{sk.name}[{ch}]"}[sk.convert]
+        body.append(f"    float {_identifier(k)} = {rhs};")
     if table is not None and any(e.op == "mtab" for e in t.nodes):
         values = ", ".join(_float32_literal(x) for x in table.reshape(-1))
         body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
@@ -377,6 +397,13 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     ])
     return OslShader(source, all_params, live_names, traced.model, st, uses_tables, shader, tuple(declared),
                      tuple(sorted(p.files)), tuple(called))
+
+
+def _socket_param(sk) -> ShaderParam:
+    """The declaration of a socket (``sockets.Socket``) as a shader parameter."""
+    if sk.kind == "color":
+        return ShaderParam(_identifier(sk.name), "color", f"color({', '.join(_literal(v) for v in sk.value)})")
+    return ShaderParam(_identifier(sk.name), "float", _literal(sk.value))
 
 
 def _float32_literal(x) -> str:

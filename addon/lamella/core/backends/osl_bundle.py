@@ -29,11 +29,11 @@ from ..layers.schema import RGB, ROUGHNESS
 from ..models import resolve
 from ..stack import Stack
 from .osl import VIEW_LINES, VIEW_TARGETS, OslShader, ShaderParam, _identifier, osl_shader
+from .sockets import socket_names
 
 TABLES_DIR = "luts"  # the bundle's table folder, and the shader's default lut_dir
 README = "README.md"
 
-_CHANNELS = {"r": "red", "g": "green", "b": "blue"}
 
 # One line per table for the README (what the shader uses it for); the full account of each
 # table, its axes and its generation is the docstring of lamella.core.luts.
@@ -60,9 +60,10 @@ def _with_unit(text: str, unit: str) -> str:
 
 
 def describe_parameter(name: str, stack: Stack) -> str:
-    """What a shader parameter is, from its name pattern (``coat{i}_<field>``, ``base_<field>``,
-    with ``_r/_g/_b`` for an RGB field and ``_alpha``, ``_alpha_x``, ``_alpha_y`` for a GGX
-    roughness) and the field's description in its layer kind's schema."""
+    """What a shader input is, from its name pattern (``coat{i}_<field>``, ``base_<field>``; a
+    colour input for an RGB field; ``_roughness``, ``_roughness_x``, ``_roughness_y`` for a
+    roughness, in Blender's units: ``core.backends.sockets``) and the field's description in its
+    layer kind's schema."""
     fixed = {
         "Normal": "shading normal (default: the renderer's N)",
         "Tangent": "x axis of the anisotropic layers' roughness and rotation, projected onto the "
@@ -89,18 +90,15 @@ def describe_parameter(name: str, stack: Stack) -> str:
     rest = m.group(3)
     fields = {f.name: f for f in kind.fields}
     rough = next((f for f in kind.fields if f.type == ROUGHNESS), None)
-    if rough is not None and rest in ("alpha", "alpha_x", "alpha_y"):
-        text = _short(rough)
-        text += {"alpha": ", isotropic", "alpha_x": " along the tangent (x)",
-                 "alpha_y": " along the bitangent (y)"}[rest]
-        return f"{where}: {text} [GGX alpha = Blender roughness squared]"
+    if rough is not None and rest in ("roughness", "roughness_x", "roughness_y"):
+        text = _short(rough).replace("GGX alpha", "roughness")
+        text += {"roughness": ", isotropic", "roughness_x": " along the tangent (x)",
+                 "roughness_y": " along the bitangent (y)"}[rest]
+        return f"{where}: {text} [Blender roughness r; GGX alpha = r * r]"
     if rest in fields:
         f = fields[rest]
-        return f"{where}: {_with_unit(_short(f), f.unit)}"
-    base, _, ch = rest.rpartition("_")
-    if base in fields and fields[base].type == RGB and ch in _CHANNELS:
-        f = fields[base]
-        return f"{where}: {_with_unit(_short(f), f.unit)}, {_CHANNELS[ch]} channel"
+        colour = ", a colour (one input for the red, green and blue channels)" if f.type == RGB else ""
+        return f"{where}: {_with_unit(_short(f), f.unit)}{colour}"
     return f"{where}: shader input"
 
 
@@ -236,9 +234,9 @@ def readme(stack, shader: OslShader, model_name: str, target: str, shader_file: 
         "",
         "Every input and the output of the shader, layer by layer from the top coat. Defaults are the "
         "stack's values; the layer "
-        "parameters are the fields of the stack format (coat 0 is the top coat). Roughness parameters "
-        "(`*_alpha`, `*_alpha_x`, `*_alpha_y`) are GGX alpha, that is Blender's roughness squared; "
-        "rotations are in radians. Whether a layer is anisotropic, absorbing or scattering is part of "
+        "parameters are the fields of the stack format (coat 0 is the top coat), in the units of Blender's "
+        "own BSDFs: roughness inputs (`*_roughness`, `*_roughness_x`, `*_roughness_y`) are Blender's "
+        "roughness r (GGX alpha = r * r), an RGB field is one `color` input, rotations are in radians. Whether a layer is anisotropic, absorbing or scattering is part of "
         "the shader's structure. " + _live_note(shader),
         "",
         "| name | type | default | description |",
@@ -252,10 +250,11 @@ def readme(stack, shader: OslShader, model_name: str, target: str, shader_file: 
 
 
 def _live_note(shader: OslShader) -> str:
-    baked = sorted(set(shader.params) - set(shader.live))
+    every = socket_names(shader.params)
+    baked = sorted(set(every) - set(shader.live_sockets))
     if not baked:
-        return "Every layer parameter is an input."
-    return (f"{len(baked)} of the {len(shader.params)} layer parameters are baked into the shader's table "
+        return "Every layer input is a shader input (none is baked)."
+    return (f"{len(baked)} of the {len(every)} layer inputs are baked into the shader's table "
             "(their values are the stack's above); to make one an input, export again with "
             "`lamella export-osl ... --live NAME` (or `--live all`).")
 
@@ -286,7 +285,7 @@ def write_bundle(stack, out_dir, model: str = "auto", target: str = "cycles", *,
     if live == "all":
         from .closures import trace_closures
 
-        live = tuple(trace_closures(stack, model).tracer.params)
+        live = tuple(trace_closures(stack, model).tracer.params)  # every parameter, so every socket
     shader = osl_shader(stack, model, name, lut_dir if lut_dir else TABLES_DIR, target, tuple(live), budget,
                         declare="live")
     missing = [f for f in shader.tables if not (luts.DATA_DIR / f).exists()]

@@ -39,6 +39,7 @@ from ..stack import Stack
 from . import lobe_budget
 from .closures import Closure, trace_closures
 from .numpy_ops import NumpyOps
+from .sockets import params_of, socket_names, sockets
 from .trace import Expr, Tracer
 
 N_MU = 64  # nodes along the view coordinate (bench/staging.md: <= 0.5 % relative L1 up to 85 degrees)
@@ -138,6 +139,12 @@ class Staged:
     interface: tuple = ()  # every parameter of the model: the shader's sockets, live or baked
 
     @property
+    def live_sockets(self) -> tuple:
+        """The sockets (``sockets.sockets``: panel units) whose parameters are live, sorted."""
+        live = set(self.live)
+        return tuple(sk.name for sk in sockets(dict.fromkeys(self.interface, 0.0)) if live & set(sk.params))
+
+    @property
     def columns(self) -> int:
         return self.table.shape[2]
 
@@ -226,10 +233,12 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     budget = lobe_budget.parse(budget)
     traced = trace_closures(stack, model)
     t = traced.tracer
-    unknown = sorted(set(live) - set(t.params))
+    defaults = {k: float(t.defaults[k]) for k in t.params}
+    unknown = sorted(n for n in live if n not in defaults and n not in socket_names(defaults))
     if unknown:
-        raise ValueError(f"not a parameter of this shader: {', '.join(unknown)} (have: {', '.join(sorted(t.params))})")
-    live = tuple(sorted(live))
+        raise ValueError(f"not an input of this shader: {', '.join(unknown)} "
+                         f"(have: {', '.join(socket_names(defaults))})")
+    live = params_of(live, defaults)
     frame = "view" if isotropic(stack) else "shading"
     default_grid = grid is None
     if grid is None:
