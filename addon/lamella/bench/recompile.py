@@ -3,11 +3,11 @@ updated material, per stack size.
 
 For each stack the extension's own path is timed in one Blender session: a property edit (a
 value: the top coat's roughness; a structure change: duplicating a coat), then the debounced flush
-the timer would run, which traces the model, compiles the shader (only for a new structure: a
-value edit reuses the compiled shader, its sockets carry the values) and updates the Script node,
-its sockets and the lobe inspector. The
-latency an artist sees is the debounce interval plus that flush. Median of REPEATS edits; the
-trace and compile parts are reported apart.
+the timer would run, which traces and stages the model (the material's table baked, its lobes
+merged to the budget), compiles the shader (its table is in the source, so every value edit is a
+new source) and updates the Script node, the node group's table image and sockets and the lobe
+inspector. The latency an artist sees is the debounce interval plus that flush. Median of REPEATS
+edits; the trace-and-stage part (``emit_osl``) is reported apart.
 """
 from __future__ import annotations
 
@@ -100,8 +100,9 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
     md = [
         "# Edit-to-updated-material latency",
         "",
-        "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, Script node and node group sockets, lobe inspector; the "
-        "compiled shader of the same structure is reused, since every layer value is a socket). *Structure edit*: duplicating a coat through the operator, in a scene that renders the node group (EEVEE: the OSL shader and the group, whose nested groups are rebuilt only where their content changed, at once) and in one that renders the OSL shader (Cycles with OSL on the CPU: the group waits until something renders it, half a second without edits, a render or a save). An artist "
+        "`lamella bench recompile` (this machine, one Blender session, empty shader cache at the start). *Value edit*: the flush after a property edit (trace, stage: the material's table re-baked and its lobes "
+        "merged again, the shader with its new table compiled, the node group's table image and sockets set, lobe "
+        "inspector; the group's nodes stay). *Trace*: tracing and staging the model alone. *Structure edit*: duplicating a coat through the operator, in a scene that renders the node group (EEVEE: the OSL shader and the group, whose nested groups are rebuilt only where their content changed, at once) and in one that renders the OSL shader (Cycles with OSL on the CPU: the group waits until something renders it, half a second without edits, a render or a save). An artist "
         f"waits the debounce interval ({recompile.DEBOUNCE * 1e3:.0f} ms) plus the value-edit time.",
         "",
         "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | structure edit, EEVEE (ms) | "

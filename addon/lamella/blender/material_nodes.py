@@ -189,7 +189,9 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
         node.node_tree = tree
     if not build:  # staged, even a value edit changes the group's table: all of it waits
         return None
-    plan = emit_plan(stack, model, live=live, budget=budget, image=table_image_name(mat))
+    staged = getattr(shader, "staged", None)  # the OSL shader's staging of this stack, when it has one
+    plan = emit_plan(stack, model, live=live, budget=budget, image=table_image_name(mat),
+                     staged_ir=staged if staged is not None and staged.stack == stack else None)
     key = plan.staged.structure_key() if plan.staged is not None else ""
     rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
     if rebuilt:

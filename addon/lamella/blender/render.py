@@ -101,9 +101,10 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     return sc, sphere
 
 
-def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True):
+def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=()):
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
-    merged to ``budget``) or, with ``staged`` False, the whole traced model."""
+    merged to ``budget``, the sockets or parameters ``live`` read live, as if a texture were linked
+    into them) or, with ``staged`` False, the whole traced model."""
     bpy = _bpy()
     mat = bpy.data.materials.new("lamella")
     sphere.data.materials.append(mat)
@@ -116,14 +117,15 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
 
         node = nt.nodes.new("ShaderNodeScript")
         name = f"lamella_{stack.name or 'stack'}.osl"
-        shader = osl_shader(stack, model, budget=budget, staged=staged)
+        shader = osl_shader(stack, model, budget=budget, staged=staged, live=live)
         assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.socket_values)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine in ("cycles-nodes", "eevee"):
         from ..core.backends.node_graph import emit_plan
         from .node_group import build_group, group_name
 
-        group = build_group(emit_plan(stack, model, budget=budget, staged=staged, image=f".lamella_table {mat.name}"),
+        group = build_group(emit_plan(stack, model, budget=budget, staged=staged, live=live,
+                                      image=f".lamella_table {mat.name}"),
                             group_name(stack.name))
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = group

@@ -13,7 +13,11 @@ the view grid, lobes of one kind are merged:
   squared, p = 0 the geometric mean), measured against the full lobe sum in ``bench/staging.md``;
 - **how many**: ``"all"`` keeps every lobe, an integer K keeps at most K closures, ``"auto"`` the
   fewest closures whose BRDF stays within ``AUTO_TOLERANCE`` (relative L1 against every lobe, at
-  every grid view up to ``AUTO_MAX_DEGREES``).
+  every grid view up to ``AUTO_MAX_DEGREES``); never more than ``MAX_CLOSURES``, what every
+  renderer draws: Cycles with OSL silently drops every closure of a shading point after the 17th
+  (measured in a white furnace with N GGX closures of 1/N each and distinct roughness: 17 render
+  0.802, 18 render 0.699, 27 render 0.413, while SVM and EEVEE render all 27), so "all" means
+  every lobe up to that cap, and a stack with more lobes is merged down to it.
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ AUTO_MAX_DEGREES = 75.0
 RULES = {"alpha": 1.0, "alpha2": 2.0, "geometric": 0.0}
 DEFAULT_RULE = "geometric"  # measured best at every budget (bench/staging.md)
 MERGEABLE = ("reflection", "backscatter", "diffuse")
+MAX_CLOSURES = 16  # Cycles' OSL renders 17 closures per shading point and drops the rest (see above)
 DELTA_ALPHA = 1e-3  # a lobe this sharp everywhere is a mirror
 LOG_FLOOR = 1e-4
 
@@ -61,6 +66,7 @@ class LobeSamples:
     index: int = -1
     log_tensor: np.ndarray | None = field(default=None, repr=False)
     exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
+    row_brdf: dict = field(default_factory=dict, repr=False)  # grid row -> f cos on its wo grid (brdf_error)
 
     @classmethod
     def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
@@ -217,16 +223,23 @@ def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], dirs: np.ndar
         wi_t = tuple(np.full(len(wo), wi[k]) for k in range(3))
         wo_t = tuple(wo[:, k] for k in range(3))
 
-        def brdf(lobes):
-            f = np.zeros((len(wo), 3))
-            for s in lobes:
-                if s.is_delta:
-                    continue
+        def lobe_brdf(s):
+            # a lobe's f cos at this view, once per lobe and view: the bisection of the automatic
+            # budget compares many partitions that share most of their (merged) lobes
+            f = s.row_brdf.get(r)
+            if f is None:
                 a = {k: np.asarray(v)[r] for k, v in s.args.items()}
                 with np.errstate(all="ignore"):
                     cos = np.broadcast_to(s.kind.cos_of_args(ops, a, wi_t, wo_t), (len(wo),))
-                w = np.stack(s.closure_weight(dirs), -1)[r]
-                f += cos[:, None] * w[None, :]
+                w = np.array([c[r] for c in s.closure_weight(dirs)])
+                f = s.row_brdf[r] = cos[:, None] * w[None, :]
+            return f
+
+        def brdf(lobes):
+            f = np.zeros((len(wo), 3))
+            for s in lobes:
+                if not s.is_delta:
+                    f += lobe_brdf(s)
             return f
 
         ref = brdf(full)
@@ -267,14 +280,18 @@ class Group:
 def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
           rule: str = DEFAULT_RULE) -> list[Group]:
     """The closures for ``samples`` (the baked lobes) under ``budget`` (``parse``); ``n_live``
-    closures of live lobes come on top and count against an integer budget."""
+    closures of live lobes come on top and count against an integer budget and against
+    ``MAX_CLOSURES``, which no budget exceeds."""
     for k, s in enumerate(samples):
         if s.index < 0:
             s.index = k
-    if budget == "all" or len(samples) <= 1:
+    cap = max(MAX_CLOSURES - n_live, 1)
+    if len(samples) <= 1 or (budget == "all" and len(samples) <= cap):
         return [Group(s, [s]) for s in samples]
     order = merge_order(samples, rule)
-    if budget == "auto":
+    if budget == "all":
+        pick = next((level for level in order if len(level) <= cap), order[-1])
+    elif budget == "auto":
         # the fewest closures within tolerance: the error grows with merging, so bisect
         lo, hi = 0, len(order) - 1  # order[lo] is within tolerance (every lobe: no error)
         if brdf_error(samples, order[hi], dirs) <= AUTO_TOLERANCE:
@@ -286,6 +303,8 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
             else:
                 hi = mid
         pick = order[lo]
+        if len(pick) > cap:
+            pick = next((level for level in order if len(level) <= cap), order[-1])
     else:
         want = max(budget - n_live, 1)
         pick = next((level for level in order if len(level) <= want), order[-1])

@@ -329,22 +329,30 @@ TABLE_IMAGE = ".lamella_table"  # the default name of a staged plan's material-t
 
 
 def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
-              image: str = TABLE_IMAGE, grid=None) -> Plan:
+              image: str = TABLE_IMAGE, grid=None, staged_ir=None) -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
     anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``).
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked,
     lobes merged to ``budget`` (``staging.stage``), the table read from the image ``image``
     (``Plan.images``) on ``grid`` (``staging.ViewGrid``; default: staging's); ``staged=False``: the
-    whole model as nodes."""
-    traced = trace_closures(stack, model)
-    stack = traced.stack
-    params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
-    if staged:
+    whole model as nodes. ``staged_ir``: the ``staging.Staged`` of this stack already made (the OSL
+    shader's, so a material is staged once), used instead of staging again."""
+    if staged and staged_ir is not None:
+        st = staged_ir
+        stack, model_name, params = st.stack, st.model, dict(st.defaults)
+        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
+    elif staged:
         from .staging import stage
 
-        st = stage(stack, model, live, budget, grid)
+        traced = trace_closures(stack, model)
+        stack, model_name = traced.stack, traced.model
+        params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
+        st = stage(traced.stack, model, live, budget, grid, traced=traced)
         t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
     else:
+        traced = trace_closures(stack, model)
+        stack, model_name = traced.stack, traced.model
+        params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         st, t, closures, wi, frame, table = None, traced.tracer, traced.closures, traced.wi, "shading", None
     specs = [(c, c.weight, c.kind.bsdf(t, c.args, wi)) for c in closures]
     exprs = []
@@ -364,7 +372,7 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if c.has_scattering else "")
     images = {image: low.material_pixels()} if any(n.props.get("image") == image for n in low.nodes) else {}
-    return Plan(low.nodes, low.leaves, params, bsdfs, sections, traced.model, stack.to_json(indent=None),
+    return Plan(low.nodes, low.leaves, params, bsdfs, sections, model_name, stack.to_json(indent=None),
                 (t, exprs, [low.ref(e) for e in exprs]), frame, images, st)
 
 

@@ -299,7 +299,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     if staged:
         from .staging import stage
 
-        st = stage(traced.stack, model, live, budget)
+        st = stage(traced.stack, model, live, budget, traced=traced)
         t, closures, frame, table = st.tracer, st.closures, st.frame, st.table
     else:
         st = None

@@ -137,6 +137,7 @@ class Staged:
     merged: list = field(default_factory=list)
     coords: tuple = ()
     interface: tuple = ()  # every parameter of the model: the shader's sockets, live or baked
+    defaults: dict = field(default_factory=dict)  # every parameter's value (the stack's)
 
     @property
     def live_sockets(self) -> tuple:
@@ -223,7 +224,8 @@ class _Columns:
         return np.stack(self.data, -1).astype(np.float32)
 
 
-def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None) -> Staged:
+def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None,
+          traced=None) -> Staged:
     """Stage ``stack`` (a Stack, dict or JSON) under ``model`` for a material whose parameters in
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
@@ -231,7 +233,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     anisotropic and its table varies with the azimuth, ``_without_azimuth``)."""
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
-    traced = trace_closures(stack, model)
+    if traced is None or traced.stack != stack:
+        traced = trace_closures(stack, model)  # ``traced``: the caller's trace of this stack and model
     t = traced.tracer
     defaults = {k: float(t.defaults[k]) for k in t.params}
     unknown = sorted(n for n in live if n not in defaults and n not in socket_names(defaults))
@@ -250,10 +253,11 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     values = dict(t.defaults)
     values.update({n: dirs[:, k] for k, n in enumerate(VIEW_INPUTS)})
     np_ops = NumpyOps(np.float64)
+    grid_env: dict = {}  # one evaluation of the model on the grid, shared by every read of it
 
     def on_grid(exprs):
         with np.errstate(all="ignore"):
-            vals = t.evaluate(list(exprs), np_ops, values)
+            vals = t.evaluate(list(exprs), np_ops, values, grid_env)
         return [np.broadcast_to(np.asarray(v, dtype=np.float64), (dirs.shape[0],)) for v in vals]
 
     def live_expr(x):
@@ -263,7 +267,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     for c in traced.closures:
         (moving if any(live_expr(x) for x in (*c.weight, *c.args.values())) else fixed).append(c)
 
-    # the fully baked lobes, on the grid, merged to the budget
+    # the fully baked lobes, on the grid (every closure's values in one pass), merged to the budget
+    on_grid([x for c in fixed for x in (*c.lobe.weight, *c.weight, *c.args.values())])
     samples = [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c)) for c in fixed]
     groups = lobe_budget.merge(samples, budget, np.asarray(dirs), len(moving))
     cols = _Columns((grid.n_mu, grid.n_phi))
@@ -323,7 +328,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                                 {k: rebuild(x) for k, x in c.args.items()}, c.label))
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
-                tuple(sorted(t.params)))
+                tuple(sorted(t.params)), defaults)
     return _without_azimuth(st) if default_grid and grid.n_phi > 1 else st
 
 

@@ -152,14 +152,18 @@ class Tracer:
             stack.extend(a for a in e.args if isinstance(a, Expr))
         return [e for e in self.nodes if id(e) in seen]
 
-    def evaluate(self, outputs, ops, values: dict[str, Any]):
-        """Evaluate the graph on another backend (e.g. ``NumpyOps``) with leaf values by name."""
-        env: dict[int, Any] = {}
+    def evaluate(self, outputs, ops, values: dict[str, Any], env: dict | None = None):
+        """Evaluate the graph on another backend (e.g. ``NumpyOps``) with leaf values by name.
+        ``env`` (node id -> value) carries values between calls with the same ops and values: a
+        node evaluated once is not evaluated again."""
+        env = {} if env is None else env
 
         def val(a):
             return env[id(a)] if isinstance(a, Expr) else a
 
-        for e in self.live_nodes(outputs):
+        for e in self.live_nodes([o for o in outputs if isinstance(o, Expr) and id(o) not in env]):
+            if id(e) in env:
+                continue
             a = [val(x) for x in e.args]
             if e.op in ("param", "input"):
                 v = ops.param(a[0], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
