@@ -31,9 +31,15 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("case,behind", CASES)
+@pytest.mark.parametrize("case,behind", CASES + [("8 coats + media", False)])
 def test_node_group_in_cycles_equals_the_osl_shader(case, behind):
-    stack = _load(case)
+    """Every listed stack, and eight coats with media (27 lobes merged to the automatic budget)."""
+    if case == "8 coats + media":
+        from lamella.bench.recompile import _stack
+
+        stack = _stack(case, None)
+    else:
+        stack = _load(case)
     sun = SUN_BEHIND if behind else SUN
     kw = dict(sun_dir=sun, res=RES, spp=1, filter_width=0.01, open_back=behind)
     osl, _ = render_stack(stack, "sphere-sun", engine="cycles-osl", **kw)

@@ -2,6 +2,8 @@
 relative L1 (RGB averaged) on the hemisphere grid, at incidence up to 85 degrees (and several
 azimuths for anisotropic stacks), below 0.5 % (bench/staging.md: worst 0.41 % over the suite);
 a value edit changes the table, not the structure; linked parameters stay live."""
+import json
+
 import numpy as np
 import pytest
 
@@ -81,3 +83,28 @@ def test_an_azimuth_the_table_does_not_vary_with_is_dropped(case):
         a = staging.evaluate_staged(st, wi, wo, dtype=np.float64)
         b = staging.evaluate_staged(full, wi, wo, dtype=np.float64)
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("case", ["gold_coated", "rotated_60", "fog_g09_d1", "varnished_wood", "rough_glass_plate"])
+def test_a_value_edit_reuses_the_trace_and_stages_as_a_fresh_trace(case):
+    """Stacks of one structure share their traced graph (``closures.structure_of``): a value edit
+    does not trace again, and what it stages is what a fresh trace stages."""
+    from lamella.core.backends import closures
+    from lamella.core.backends.osl import emit_osl
+
+    d = suite.load(case).to_dict()
+    edited = json.loads(json.dumps(d))
+    edited["layers"][0]["ior"] = 1.37
+    edited["base"] = {**edited["base"], **{k: [0.9 * x for x in v] for k, v in edited["base"].items()
+                                            if k in ("eta", "albedo")}}
+    closures._TRACES.clear()
+    first = closures.trace_closures(Stack.from_dict(d))
+    again = closures.trace_closures(Stack.from_dict(edited))
+    assert again.closures is first.closures and again.tracer.defaults != first.tracer.defaults
+    cached = emit_osl(Stack.from_dict(edited))
+    closures._TRACES.clear()
+    assert emit_osl(Stack.from_dict(edited)) == cached
+    r = edited["layers"][0]["roughness"]
+    flipped = [0.1, 0.1] if r[0] != r[1] else [0.1, 0.2]  # isotropic <-> anisotropic: another structure
+    other = dict(edited, layers=[dict(edited["layers"][0], roughness=flipped)] + edited["layers"][1:])
+    assert closures.structure_of(Stack.from_dict(other)) != closures.structure_of(Stack.from_dict(edited))

@@ -7,6 +7,7 @@ its energy times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 from .. import lobe_kinds
@@ -36,10 +37,68 @@ class TracedClosures:
     closures: list
 
 
+class _ParamNames:
+    """Stands in for an ops object in a layer kind's ``params``: records the parameter names."""
+
+    def __init__(self):
+        self.names = []
+
+    def param(self, name, value):
+        self.names.append(name)
+        return value
+
+
+def structure_of(stack, model: str = "auto") -> tuple:
+    """What the traced graph of ``stack`` depends on: the model asked for and the names of the
+    parameters its layers declare (``layers.params``). The models branch only on the stack's
+    structure (the number of coats, the base's kind, which layers are isotropic, absorbing or
+    scattering), every one of which shows in those names; every value reaches the graph as a
+    parameter. So two stacks of one structure trace to the same graph with other defaults."""
+    rec = _ParamNames()
+    for i, c in enumerate(stack.coats):
+        c.kind.params(rec, f"coat{i}", c)
+    stack.base.kind.params(rec, "base", stack.base)
+    return (model, stack.base.type, len(stack.coats), tuple(rec.names))
+
+
+_TRACES: dict = {}  # structure_of -> TracedClosures: a value edit does not trace again
+_TRACES_KEPT = 16
+
+
 def trace_closures(stack, model: str = "auto") -> TracedClosures:
     """Trace ``stack`` (a Stack, dict or JSON) under ``model`` down to its closures; the nodes
-    made for the weights carry the scope "closures"."""
+    made for the weights carry the scope "closures". A stack of a structure traced before reuses
+    that graph with its own values as the parameters' defaults (``structure_of``)."""
     stack = Stack.coerce(stack)
+    key = structure_of(stack, model)
+    hit = _TRACES.get(key)
+    if hit is not None:
+        tracer = copy.copy(hit.tracer)
+        tracer.defaults = _param_values(stack, {})
+        return TracedClosures(stack, hit.model, tracer, hit.wi, hit.closures)
+    traced = _trace(stack, model)
+    if len(_TRACES) >= _TRACES_KEPT:
+        _TRACES.pop(next(iter(_TRACES)))
+    _TRACES[key] = traced
+    return traced
+
+
+def _param_values(stack, out: dict) -> dict:
+    """Parameter name -> value of ``stack``, as its layer kinds declare them."""
+
+    class _Values(_ParamNames):
+        def param(self, name, value):
+            out[name] = value
+            return value
+
+    rec = _Values()
+    for i, c in enumerate(stack.coats):
+        c.kind.params(rec, f"coat{i}", c)
+    stack.base.kind.params(rec, "base", stack.base)
+    return out
+
+
+def _trace(stack, model: str) -> TracedClosures:
     v = resolve(model, stack)
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))

@@ -67,6 +67,7 @@ class LobeSamples:
     log_tensor: np.ndarray | None = field(default=None, repr=False)
     exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
     row_brdf: dict = field(default_factory=dict, repr=False)  # grid row -> f cos on its wo grid (brdf_error)
+    _delta: bool | None = field(default=None, repr=False)
 
     @classmethod
     def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
@@ -92,10 +93,10 @@ class LobeSamples:
 
     @property
     def is_delta(self) -> bool:
-        if not self.kind.rough:
-            return False
-        a = [self.args[k] for k in ("ax", "ay", "alpha") if k in self.args]
-        return all(np.all(np.abs(x) < DELTA_ALPHA) for x in a)
+        if self._delta is None:
+            a = [self.args[k] for k in ("ax", "ay", "alpha") if k in self.args]
+            self._delta = bool(self.kind.rough and all(np.all(np.abs(x) < DELTA_ALPHA) for x in a))
+        return self._delta
 
 
 # ---------------------------------------------------------------- roughness tensors
@@ -189,14 +190,21 @@ def merge_order(samples: list[LobeSamples], rule: str = DEFAULT_RULE) -> list[li
     current = [[s] for s in samples]
     merged = list(samples)
     out = [list(merged)]
+    costs: dict = {}  # (id, id) of two lobes -> their merge cost (None: they cannot merge)
+
+    def cost(a, b):
+        key = (id(a), id(b))
+        if key not in costs:
+            costs[key] = _cost(a, b) if _can_merge(a, b) else None
+        return costs[key]
+
     while True:
         best = None
         for i in range(len(merged)):
             for j in range(i + 1, len(merged)):
-                if _can_merge(merged[i], merged[j]):
-                    c = _cost(merged[i], merged[j])
-                    if best is None or c < best[0]:
-                        best = (c, i, j)
+                c = cost(merged[i], merged[j])
+                if c is not None and (best is None or c < best[0]):
+                    best = (c, i, j)
         if best is None:
             return out
         _, i, j = best

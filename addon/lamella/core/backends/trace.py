@@ -161,7 +161,8 @@ class Tracer:
         def val(a):
             return env[id(a)] if isinstance(a, Expr) else a
 
-        for e in self.live_nodes([o for o in outputs if isinstance(o, Expr) and id(o) not in env]):
+        missing = [o for o in outputs if isinstance(o, Expr) and id(o) not in env]
+        for e in self.live_nodes(missing) if missing else ():
             if id(e) in env:
                 continue
             a = [val(x) for x in e.args]
