@@ -148,7 +148,10 @@ def cmd_bench(a) -> int:
         from .bench import pareto
 
         out = Path(a.out) if a.out else BENCH_DIR
-        print(pareto.run(out, quick=a.quick, cases=a.cases.split(",") if a.cases else None).read_text())
+        if a.replot:
+            print(pareto.rewrite(out, quick=a.quick).read_text())
+        else:
+            print(pareto.run(out, quick=a.quick, cases=a.cases.split(",") if a.cases else None).read_text())
     elif a.what == "images":
         from .bench import images
 
@@ -325,6 +328,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
+    p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
     p.set_defaults(fn=cmd_bench)
 
     p = sub.add_parser("export-osl", help="write a self-contained OSL bundle for a stack: shader, tables, README")

@@ -185,8 +185,7 @@ def cost_sweep(stacks: list[tuple[float, Stack]], s: Settings, bar=None) -> list
 
 # ---------------------------------------------------------------- equal time
 def _loglog(xs, ys, x):
-    """y at x on the piecewise log-log line through (xs, ys) (xs increasing), extended by the end
-    segments."""
+    """y at x on the piecewise log-log line through (xs, ys) (xs increasing)."""
     lx, ly = np.log(xs), np.log(ys)
     if len(xs) == 1:
         return float(ys[0])
@@ -195,29 +194,45 @@ def _loglog(xs, ys, x):
     return float(math.exp(ly[k] + t * (ly[k + 1] - ly[k])))
 
 
+def time_unit(row: dict) -> float:
+    """The stack's time unit: the Principled stand-in's render at the ladder's largest sample
+    count, in the same run (every variant's wall time is plotted over it)."""
+    return row["curves"]["principled"][-1]["seconds"]
+
+
+def _brute_error_at(t: np.ndarray, e: np.ndarray, floor: float, at: float) -> float:
+    """The brute force's error at wall time ``at``: log-log interpolation between its renders,
+    and beyond them the Monte Carlo rate anchored at the nearest (error^2 - floor^2 proportional
+    to 1 / time)."""
+    if t[0] <= at <= t[-1]:
+        return _loglog(t, e, at)
+    k = 0 if at < t[0] else -1
+    return float(math.sqrt(floor ** 2 + max(e[k] ** 2 - floor ** 2, 0.0) * t[k] / at))
+
+
 def equal_time(row: dict, ours: str = "osl auto", metric: str = "rmse") -> dict | None:
-    """Our error at our largest sample count, the brute force's at the same time ratio, and the
-    time ratio the brute force needs for our error (None: never, our error is below its floor)."""
+    """Our error at our largest sample count and its wall time; the brute force's error in that
+    same time; and the time the brute force needs for our error, as a multiple of ours (None:
+    never, our error is below its noise floor). Times are seconds in the same run."""
     mine, brute = row["curves"].get(ours), row["curves"].get("brute force")
     if not mine or not brute:
         return None
     last = mine[-1]
-    t = np.array([p["x_principled"] for p in brute])
+    t = np.array([p["seconds"] for p in brute])
     e = np.array([p[metric] for p in brute])
-    brute_then = _loglog(t, e, last["x_principled"])
     floor = row["noise_rmse"] if metric == "rmse" else 0.0
     goal = last[metric]
-    reached = [p["x_principled"] for p in brute if p[metric] <= goal]
+    reached = [p["seconds"] for p in brute if p[metric] <= goal]
     if reached:
         need = min(reached)
     elif goal > floor:
-        # Monte Carlo: err^2 = floor^2 + c / t, c from the brute force's longest render
-        c = (e[-1] ** 2 - floor ** 2) * t[-1]
+        c = (e[-1] ** 2 - floor ** 2) * t[-1]  # the Monte Carlo rate from the longest render
         need = c / (goal ** 2 - floor ** 2) if c > 0 else None
     else:
         need = None
-    return {"ours": ours, "ours_x": last["x_principled"], "ours_error": goal, "brute_error_then": brute_then,
-            "brute_x_needed": need}
+    return {"ours": ours, "ours_spp": last["spp"], "ours_seconds": last["seconds"], "ours_error": goal,
+            "brute_error_then": _brute_error_at(t, e, floor, last["seconds"]),
+            "brute_x_needed": None if need is None else need / last["seconds"]}
 
 
 # ---------------------------------------------------------------- the run
@@ -249,6 +264,20 @@ def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bo
     return path
 
 
+def rewrite(out_dir: Path = BENCH_DIR, quick: bool = False) -> Path:
+    """The tables and plots again from the stored measurements (``pareto.json``), without
+    rendering: the equal-time view recomputed from them."""
+    out_dir = Path(out_dir)
+    stem = "pareto_quick" if quick else "pareto"
+    data = json.loads((out_dir / f"{stem}.json").read_text())
+    data["equal_time"] = [dict(stack=r["stack"], **et) for r in data["stacks"] if (et := equal_time(r)) is not None]
+    (out_dir / f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n")
+    plots = write_plots(data, out_dir / "plots", stem)
+    path = out_dir / f"{stem}.md"
+    path.write_text(format_markdown(data, {k: p.relative_to(out_dir).as_posix() for k, p in plots.items()}))
+    return path
+
+
 def write_plots(data: dict, plot_dir: Path, stem: str) -> dict:
     import matplotlib
 
@@ -261,20 +290,26 @@ def write_plots(data: dict, plot_dir: Path, stem: str) -> dict:
     cols = min(4, len(rows))
     nrows = -(-len(rows) // cols)
     fig, axes = plt.subplots(nrows, cols, figsize=(3.2 * cols, 2.6 * nrows), squeeze=False)
+    from matplotlib.ticker import NullFormatter
+
     for ax, r in zip(axes.flat, rows):
+        unit = time_unit(r)
         for label, pts in r["curves"].items():
             if pts:
-                ax.plot([p["x_principled"] for p in pts], [p["rmse"] for p in pts], "o-" if label != "brute force" else "s--",
-                        ms=3, lw=1, label=label)
+                ax.plot([p["seconds"] / unit for p in pts], [p["rmse"] for p in pts],
+                        "o-" if label != "brute force" else "s--", ms=3, lw=1, label=label)
         ax.axhline(r["noise_rmse"], color="0.6", lw=0.8, ls=":")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_minor_formatter(NullFormatter())
         ax.set_title(r["stack"], fontsize=8)
         ax.tick_params(labelsize=6)
     for ax in list(axes.flat)[len(rows):]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=5)
-    fig.supxlabel("render time / Principled's at the same samples", fontsize=8)
+    fig.supxlabel(f"wall time / the Principled stand-in's at {max(data['settings']['ladder'])} samples "
+                  "(points: the sample ladder)", fontsize=8)
     fig.supylabel("RMSE against the converged reference (dotted: its own noise)", fontsize=8)
     out = {"pareto": save_figure(fig, plot_dir / f"{stem}_fronts.png")}
 
@@ -323,11 +358,15 @@ def format_markdown(data: dict, plots: dict) -> str:
         lines.append(f"| {r['stack']} | {r['noise_rmse']:.4f} | " + " | ".join(cells) + " |")
     lines += ["", "Cells: RMSE / mean ΔE00 / mean FLIP @ time ratio.", "",
               "## Equal time: the staged shader (`osl auto`) against brute force", "",
-              "| stack | ours: time | ours: RMSE | brute force's RMSE in that time | time brute force needs |",
+              "Our render at the largest sample count and its wall time; the brute force's RMSE in the same wall "
+              "time (between its renders log-log, beyond them at the Monte Carlo rate); the wall time the brute force "
+              "needs to reach our RMSE, as a multiple of ours (past its longest render: the Monte Carlo rate).", "",
+              "| stack | ours: spp, seconds | ours: RMSE | brute force's RMSE in that time | time brute force needs |",
               "|---|---:|---:|---:|---:|"]
     for e in data["equal_time"]:
-        need = f"{e['brute_x_needed']:.0f}x" if e["brute_x_needed"] is not None else "never (below its floor)"
-        lines.append(f"| {e['stack']} | {e['ours_x']:.2f}x | {e['ours_error']:.4f} | {e['brute_error_then']:.4f} | {need} |")
+        need = f"{e['brute_x_needed']:.1f}x ours" if e["brute_x_needed"] is not None else "never (below its floor)"
+        lines.append(f"| {e['stack']} | {e['ours_spp']}, {e['ours_seconds']:.1f} s | {e['ours_error']:.4f} | "
+                     f"{e['brute_error_then']:.4f} | {need} |")
     lines += ["", "## Cost against stack size", "", f"![Cost]({plots['cost']})", "",
               f"{st['cost_spp']} samples; time over the Principled stand-in's in the same shading system.", "",
               "| stack | closures | " + " | ".join(v.label for v in COST_VARIANTS) + " |",

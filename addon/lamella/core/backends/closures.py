@@ -37,28 +37,34 @@ class TracedClosures:
     closures: list
 
 
-class _ParamNames:
-    """Stands in for an ops object in a layer kind's ``params``: records the parameter names."""
+class _Declared:
+    """Stands in for an ops object in a layer kind's ``params``: records each parameter's name and
+    value, in the order the kind declares them."""
 
     def __init__(self):
-        self.names = []
+        self.values = {}
 
     def param(self, name, value):
-        self.names.append(name)
+        self.values[name] = value
         return value
+
+
+def declared_params(stack) -> dict:
+    """Parameter name -> value of ``stack``, as its layer kinds declare them (``layers.params``)."""
+    rec = _Declared()
+    for i, c in enumerate(stack.coats):
+        c.kind.params(rec, f"coat{i}", c)
+    stack.base.kind.params(rec, "base", stack.base)
+    return rec.values
 
 
 def structure_of(stack, model: str = "auto") -> tuple:
     """What the traced graph of ``stack`` depends on: the model asked for and the names of the
-    parameters its layers declare (``layers.params``). The models branch only on the stack's
-    structure (the number of coats, the base's kind, which layers are isotropic, absorbing or
-    scattering), every one of which shows in those names; every value reaches the graph as a
-    parameter. So two stacks of one structure trace to the same graph with other defaults."""
-    rec = _ParamNames()
-    for i, c in enumerate(stack.coats):
-        c.kind.params(rec, f"coat{i}", c)
-    stack.base.kind.params(rec, "base", stack.base)
-    return (model, stack.base.type, len(stack.coats), tuple(rec.names))
+    parameters its layers declare. The models branch only on the stack's structure (the number of
+    coats, the base's kind, which layers are isotropic, absorbing or scattering), every one of
+    which shows in those names; every value reaches the graph as a parameter. So two stacks of one
+    structure trace to the same graph with other defaults."""
+    return (model, stack.base.type, len(stack.coats), tuple(declared_params(stack)))
 
 
 _TRACES: dict = {}  # structure_of -> TracedClosures: a value edit does not trace again
@@ -74,28 +80,13 @@ def trace_closures(stack, model: str = "auto") -> TracedClosures:
     hit = _TRACES.get(key)
     if hit is not None:
         tracer = copy.copy(hit.tracer)
-        tracer.defaults = _param_values(stack, {})
+        tracer.defaults = declared_params(stack)
         return TracedClosures(stack, hit.model, tracer, hit.wi, hit.closures)
     traced = _trace(stack, model)
     if len(_TRACES) >= _TRACES_KEPT:
         _TRACES.pop(next(iter(_TRACES)))
     _TRACES[key] = traced
     return traced
-
-
-def _param_values(stack, out: dict) -> dict:
-    """Parameter name -> value of ``stack``, as its layer kinds declare them."""
-
-    class _Values(_ParamNames):
-        def param(self, name, value):
-            out[name] = value
-            return value
-
-    rec = _Values()
-    for i, c in enumerate(stack.coats):
-        c.kind.params(rec, f"coat{i}", c)
-    stack.base.kind.params(rec, "base", stack.base)
-    return out
 
 
 def _trace(stack, model: str) -> TracedClosures:
