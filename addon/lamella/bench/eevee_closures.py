@@ -84,9 +84,10 @@ def rel_l1(img: np.ndarray, ref: np.ndarray, mask: np.ndarray) -> float:
 
 
 # ---------------------------------------------------------------- renders (bpy)
-def _material(sphere, lobes):
-    """A material adding one BSDF node per (kind, RGB, alpha) lobe: Glossy (GGX) about the
-    normal, Glossy about the view (back-scatter), Diffuse."""
+def lobe_sum_material(sphere, lobes):
+    """The only material of ``sphere``: one BSDF node per (kind, RGB, alpha) lobe added up: Glossy
+    (GGX, Blender roughness sqrt(alpha)) about the normal, Glossy about the view (back-scatter),
+    Diffuse."""
     import bpy
 
     from ..blender.render import node_tree
@@ -127,7 +128,7 @@ def _renderer(engine: str):
         sc, sphere = build_scene("sphere-env", RES, SPP)
         if engine == "eevee":
             use_eevee(sc)
-        _material(sphere, lobes)
+        lobe_sum_material(sphere, lobes)
         px, _ = render_scene(sc)
         return px
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..core import suite
 from . import BENCH_DIR
+from .eevee_closures import lobe_sum_material
 
 SUN_DIR = (0.35, -0.75, 0.56)  # normalised by the scene builder
 RES, SPP = 96, 64
@@ -101,11 +102,13 @@ def _render(sc, eevee: bool) -> np.ndarray:
 
 
 def _material(sphere, build):
+    """The only material of ``sphere``: what ``build(nt)`` returns (a shader socket) on its output."""
     import bpy
 
     from ..blender.render import node_tree
 
     mat = bpy.data.materials.new("control")
+    sphere.data.materials.clear()
     sphere.data.materials.append(mat)
     nt = node_tree(mat)
     nt.nodes.clear()
@@ -113,43 +116,24 @@ def _material(sphere, build):
     nt.links.new(build(nt), out.inputs["Surface"])
 
 
-def lobe_matched(nt, stack):
-    """Plain Glossy (GGX, Blender roughness r = sqrt(alpha)) and Diffuse BSDFs with our lobes'
-    energies and roughnesses at normal incidence, added up: the closures of our group without
-    the group."""
+def matched_lobes(stack) -> list[tuple]:
+    """Our lobes at normal incidence as (kind, RGB energy, GGX alpha) for plain BSDF nodes
+    (``eevee_closures.lobe_sum_material``); an anisotropic lobe as alpha = sqrt(ax ay), as the
+    group gives EEVEE. Transmission lobes are left out: a closed sphere lit from the front shows
+    them only after bounces."""
     from ..core.api import lobes
 
     ls = lobes(stack, np.array([[0.0, 0.0, 1.0]]))
-    total = None
-    for k, kind in enumerate(ls.kinds):
-        w = ls.weight[0, k]
-        if kind == "diffuse":
-            n = nt.nodes.new("ShaderNodeBsdfDiffuse")
-        elif kind in ("reflection", "backscatter"):
-            n = nt.nodes.new("ShaderNodeBsdfAnisotropic")
-            n.distribution = "GGX"
-            n.inputs["Roughness"].default_value = math.sqrt(math.sqrt(ls.alpha_x[0, k] * ls.alpha_y[0, k]))
-            if kind == "backscatter":  # about the view direction, as the lobe kind's node
-                nt.links.new(nt.nodes.new("ShaderNodeNewGeometry").outputs["Incoming"], n.inputs["Normal"])
-        else:
-            continue  # transmission: a closed sphere lit from the front shows it only after bounces
-        n.inputs["Color"].default_value = (*map(float, w), 1.0)
-        if total is None:
-            total = n.outputs[0]
-        else:
-            add = nt.nodes.new("ShaderNodeAddShader")
-            nt.links.new(total, add.inputs[0])
-            nt.links.new(n.outputs[0], add.inputs[1])
-            total = add.outputs[0]
-    return total
+    return [(kind, tuple(map(float, ls.weight[0, k])), math.sqrt(ls.alpha_x[0, k] * ls.alpha_y[0, k]))
+            for k, kind in enumerate(ls.kinds) if kind in ("reflection", "backscatter", "diffuse")]
 
 
-def _pair(build) -> tuple[np.ndarray, np.ndarray]:
-    """(EEVEE, Cycles) renders of the material ``build(nt)`` makes."""
+def _pair(make) -> tuple[np.ndarray, np.ndarray]:
+    """(EEVEE, Cycles) renders of the material ``make(sphere)`` gives the sphere."""
     out = []
     for eevee in (True, False):
         sc, sphere = _scene()
-        _material(sphere, build)
+        make(sphere)
         if eevee:
             _render(sc, True)  # the first EEVEE render compiles
         out.append(_render(sc, eevee))
@@ -167,8 +151,8 @@ def stack_row(name: str) -> dict:
         if engine == "eevee":
             render_scene(sc)
         renders[engine] = render_scene(sc)[0]
-    pe, pc = _pair(lambda nt: _principled(nt, stack).outputs["BSDF"])
-    le, lc = _pair(lambda nt: lobe_matched(nt, stack))
+    pe, pc = _pair(lambda sphere: _material(sphere, lambda nt: _principled(nt, stack).outputs["BSDF"]))
+    le, lc = _pair(lambda sphere: lobe_sum_material(sphere, matched_lobes(stack)))
     return {"stack": name, "ours": gap(renders["eevee"], renders["cycles-osl"]), "principled": gap(pe, pc),
             "lobe_matched": gap(le, lc)}
 
@@ -186,8 +170,9 @@ def sweep_rows() -> list[dict]:
     def lambert(nt):
         return nt.nodes.new("ShaderNodeBsdfDiffuse").outputs[0]
 
-    rows = [{"material": "Diffuse BSDF", **gap(*_pair(lambert))}]
-    rows += [{"material": f"Principled metal r {r:g}", **gap(*_pair(principled(r)))} for r in SWEEP_ROUGHNESS]
+    rows = [{"material": "Diffuse BSDF", **gap(*_pair(lambda sphere: _material(sphere, lambert)))}]
+    rows += [{"material": f"Principled metal r {r:g}", **gap(*_pair(lambda sphere, r=r: _material(sphere, principled(r))))}
+             for r in SWEEP_ROUGHNESS]
     return rows
 
 
