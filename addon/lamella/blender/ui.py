@@ -69,6 +69,10 @@ def draw_status(layout, context, mat) -> None:
                     f"values, Cycles holds about {SVM_STACK - SVM_HEADROOM}) and renders black: unlink an "
                     "input (baked values cost nothing), or use Cycles with OSL on the CPU.")
             box.alert = True
+    elif sc.render.engine == "CYCLES":
+        note = ("Cycles renders the OSL shader. With Open Shading Language off it renders the node group instead "
+                "(the same image where nothing linked is too large for it), and every shader of the scene "
+                "renders faster.")
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
         note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."
     elif sc.render.engine != "CYCLES":
