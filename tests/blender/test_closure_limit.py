@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
-from lamella.blender.render import assign_material, build_scene, node_tree, render_scene  # noqa: E402
+from lamella.blender.render import assign_material, build_scene, render_scene, sphere_material  # noqa: E402
 from lamella.core import api  # noqa: E402
 from lamella.core.backends import lobe_budget  # noqa: E402
 from lamella.core.backends.staging import stage  # noqa: E402
@@ -28,11 +28,7 @@ def _n_closures(n: int) -> float:
     from lamella.blender.osl_compile import assign_script
 
     def build(sphere):
-        mat = bpy.data.materials.new("n_closures")
-        sphere.data.materials.append(mat)
-        nt = node_tree(mat)
-        nt.nodes.clear()
-        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        _, nt, out = sphere_material(sphere, "n_closures")
         src = ['#include "stdosl.h"', "shader n_closures(output closure color BSDF = 0)", "{"]
         src += [f'    BSDF += color({1.0 / n}) * microfacet("ggx", N, {0.3 + 0.01 * k}, 1.0, 0);' for k in range(n)]
         node = nt.nodes.new("ShaderNodeScript")

@@ -88,16 +88,9 @@ def lobe_sum_material(sphere, lobes):
     """The only material of ``sphere``: one BSDF node per (kind, RGB, alpha) lobe added up: Glossy
     (GGX, Blender roughness sqrt(alpha)) about the normal, Glossy about the view (back-scatter),
     Diffuse."""
-    import bpy
+    from ..blender.render import sphere_material
 
-    from ..blender.render import node_tree
-
-    mat = bpy.data.materials.new("closures")
-    sphere.data.materials.clear()
-    sphere.data.materials.append(mat)
-    nt = node_tree(mat)
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    mat, nt, out = sphere_material(sphere, "closures")
     geo = nt.nodes.new("ShaderNodeNewGeometry")
     shader = None
     for kind, rgb, alpha in lobes:

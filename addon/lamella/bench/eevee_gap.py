@@ -103,16 +103,9 @@ def _render(sc, eevee: bool) -> np.ndarray:
 
 def _material(sphere, build):
     """The only material of ``sphere``: what ``build(nt)`` returns (a shader socket) on its output."""
-    import bpy
+    from ..blender.render import sphere_material
 
-    from ..blender.render import node_tree
-
-    mat = bpy.data.materials.new("control")
-    sphere.data.materials.clear()
-    sphere.data.materials.append(mat)
-    nt = node_tree(mat)
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    _, nt, out = sphere_material(sphere, "control")
     nt.links.new(build(nt), out.inputs["Surface"])
 
 

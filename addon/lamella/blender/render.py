@@ -101,16 +101,23 @@ def build_scene(scene: str, res: int, spp: int, sun_dir=DEFAULT_SUN_DIR, seed: i
     return sc, sphere
 
 
+def sphere_material(sphere, name: str):
+    """A new, empty node material as the only material of ``sphere``: (material, node tree, its
+    Material Output)."""
+    mat = _bpy().data.materials.new(name)
+    sphere.data.materials.clear()
+    sphere.data.materials.append(mat)
+    nt = node_tree(mat)
+    nt.nodes.clear()
+    return mat, nt, nt.nodes.new("ShaderNodeOutputMaterial")
+
+
 def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=()):
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
     merged to ``budget``, the sockets or parameters ``live`` read live, as if a texture were linked
     into them) or, with ``staged`` False, the whole traced model."""
     bpy = _bpy()
-    mat = bpy.data.materials.new("lamella")
-    sphere.data.materials.append(mat)
-    nt = node_tree(mat)
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":
         from ..core.backends.osl import osl_shader
         from .osl_compile import assign_script

@@ -340,19 +340,17 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
     if staged and staged_ir is not None:
         st = staged_ir
         stack, model_name, params = st.stack, st.model, dict(st.defaults)
-        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
-    elif staged:
-        from .staging import stage
-
-        traced = trace_closures(stack, model)
-        stack, model_name = traced.stack, traced.model
-        params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
-        st = stage(traced.stack, model, live, budget, grid, traced=traced)
-        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
     else:
         traced = trace_closures(stack, model)
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
+        if staged:
+            from .staging import stage
+
+            st = stage(traced.stack, model, live, budget, grid, traced=traced)
+    if staged:
+        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
+    else:
         st, t, closures, wi, frame, table = None, traced.tracer, traced.closures, traced.wi, "shading", None
     specs = [(c, c.weight, c.kind.bsdf(t, c.args, wi)) for c in closures]
     exprs = []
