@@ -108,3 +108,86 @@ def test_a_value_edit_reuses_the_trace_and_stages_as_a_fresh_trace(case):
     flipped = [0.1, 0.1] if r[0] != r[1] else [0.1, 0.2]  # isotropic <-> anisotropic: another structure
     other = dict(edited, layers=[dict(edited["layers"][0], roughness=flipped)] + edited["layers"][1:])
     assert closures.structure_of(Stack.from_dict(other)) != closures.structure_of(Stack.from_dict(edited))
+
+
+@pytest.mark.parametrize("case, field", [("gold_coated", "roughness"), ("rotated_60", "roughness"), ("fog_g09_d1", "g")])
+def test_a_value_edit_re_evaluates_what_it_reaches_and_stages_as_from_scratch(case, field):
+    """Staging keeps the last evaluation of the model on the grid: an edit re-evaluates only the
+    nodes the changed parameter reaches (from the second edit of that parameter on, as compiled
+    code). Each table of a slider drag equals the one staged from nothing."""
+    from lamella.core.backends.closures import trace_closures
+
+    d = suite.load(case).to_dict()
+    r = d["layers"][0][field]
+    staging._EVALUATED.clear()
+    staging.stage(Stack.from_dict(d))
+    for k in range(4):  # a field of the top coat dragged (both values of an anisotropic roughness)
+        f = 0.9 - 0.1 * k
+        d["layers"][0][field] = [x * f for x in r] if isinstance(r, list) else r * f
+        stack = Stack.from_dict(d)
+        kept = staging._EVALUATED["env"]
+        edited = staging.stage(stack)
+        assert staging._EVALUATED["env"] is kept  # reused, not evaluated afresh
+        plans = trace_closures(stack).tracer.memo("plans", dict)
+        assert any(p.get("code") is not None for p in plans.values()) == (k >= 1)
+        staging._EVALUATED.clear()
+        fresh = staging.stage(stack)
+        assert edited.merged == fresh.merged
+        np.testing.assert_array_equal(edited.table, fresh.table)
+
+
+def test_the_azimuth_probe_keeps_what_varies_with_the_azimuth():
+    """``_azimuth_free`` drops the azimuth only where no value depends on it."""
+    from lamella.core.backends.trace import Tracer
+
+    t = Tracer()
+    x, y, z = (t.input(n) for n in staging.VIEW_INPUTS)
+    grid = staging.ViewGrid(staging.N_MU, 1)
+    assert staging._azimuth_free(t, grid, [x * 2.0]) is None
+    assert staging._azimuth_free(t, grid, [z * 2.0, x * 0.0 + 1.0]) is not None
+    on_grid = staging._azimuth_free(t, grid, [z * 3.0])
+    np.testing.assert_array_equal(on_grid([z * 3.0])[0], grid.directions()[:, 0, 2] * 3.0)
+
+
+def test_every_lobe_normaliser_depends_on_the_view_elevation_alone():
+    """A baked lobe's closure weight is its energy times its kind's normaliser at the view
+    (``scale_of_args``); where the table drops the azimuth that normaliser is taken at phi = 0,
+    so no lobe kind's may depend on the view's azimuth."""
+    from lamella.core import lobe_kinds
+    from lamella.core.backends.numpy_ops import NumpyOps
+
+    ops = NumpyOps(np.float64)
+    rng = np.random.default_rng(7)
+    theta = rng.uniform(0.0, 1.4, 64)
+    for kind in lobe_kinds.KINDS.values():
+        args = {"ax": rng.uniform(0.05, 0.8, 64), "ay": rng.uniform(0.05, 0.8, 64), "alpha": rng.uniform(0.05, 0.8, 64),
+                "cos": np.ones(64), "sin": np.zeros(64), "nx": np.zeros(64), "ny": np.zeros(64), "nz": -np.ones(64)}
+        values = []
+        for phi in (0.0, 1.0, 2.6):
+            wi = (np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta))
+            values.append(np.broadcast_to(kind.scale_of_args(ops, args, wi), theta.shape))
+        np.testing.assert_allclose(values[1], values[0], rtol=1e-12, err_msg=kind.name)
+        np.testing.assert_allclose(values[2], values[0], rtol=1e-12, err_msg=kind.name)
+
+
+def test_roughness_tensor_functions_in_closed_form_match_an_eigen_solver():
+    """The lobe budget's symmetric 2 x 2 tensors (xx, xy, yy) are decomposed in closed form;
+    the log, power and exponential of a tensor match numpy's eigen-solver."""
+    rng = np.random.default_rng(11)
+    ax, ay = rng.uniform(1e-3, 1.0, 200), rng.uniform(1e-3, 1.0, 200)
+    ang = rng.uniform(-np.pi, np.pi, 200)
+    c, s = np.cos(ang), np.sin(ang)
+    t = (ax * c * c + ay * s * s, (ax - ay) * c * s, ax * s * s + ay * c * c)
+    m = np.stack([np.stack([t[0], t[1]], -1), np.stack([t[1], t[2]], -1)], -2)
+    w, v = np.linalg.eigh(m)
+    for fn in (np.log, np.sqrt, np.exp):
+        want = v @ (fn(w)[..., None] * np.swapaxes(v, -1, -2))
+        got = lobe_budget._tensor_fn(t, fn)
+        np.testing.assert_allclose(got[0], want[:, 0, 0], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got[1], want[:, 0, 1], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got[2], want[:, 1, 1], rtol=1e-9, atol=1e-12)
+    from lamella.core import lobe_kinds
+
+    args = lobe_budget._args_of_tensor(lobe_kinds.KINDS["reflection"], t)
+    np.testing.assert_allclose(args["ax"], np.maximum(ax, ay), rtol=1e-9)
+    np.testing.assert_allclose(args["ay"], np.minimum(ax, ay), rtol=1e-9)

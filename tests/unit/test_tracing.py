@@ -157,3 +157,37 @@ def test_media_and_new_bases_trace_equal_to_numpy(case, model):
     values.update({f"wo_{c}": wo_np[:, k] for k, c in enumerate("xyz")})
     got = np.stack(t.evaluate(outputs, NumpyOps(), values), -1)
     np.testing.assert_array_equal(got, lc.evaluate(st, wi_np, wo_np, model))
+
+
+def test_a_compiled_plan_evaluates_as_the_graph_walk():
+    """``Tracer.evaluate`` with a plan runs compiled straight-line code from the plan's second
+    call on: equal to walking the graph, and where the values it took as known are missing it
+    walks the graph for them."""
+    from lamella.core import suite
+    from lamella.core.backends.closures import trace_closures
+
+    traced = trace_closures(suite.load("fog_g09_d1"))
+    t = traced.tracer
+    outs = [x for c in traced.closures for x in (*c.weight, *c.args.values())]
+    wi = suite.incident(50.0)
+    values = dict(t.defaults)
+    values.update({n: np.full(3, wi[k]) for k, n in enumerate(("wi_x", "wi_y", "wi_z"))})
+    ops = NumpyOps(np.float64)
+    with np.errstate(all="ignore"):
+        want = t.evaluate(outs, ops, values)
+        base: dict = {}
+        t.evaluate(outs, ops, values, base)
+        stale = t.reached_by(["coat0_ior"])
+        for run in range(3):
+            env = {k: v for k, v in base.items() if k not in stale}
+            got = t.evaluate(outs, ops, values, env, plan=("test", True))
+            for a, b in zip(got, want):
+                np.testing.assert_array_equal(a, b)
+        assert t.memo("plans", dict)[("test", True)].get("code") is not None
+        # a value the plan takes as known (an argument of a node it evaluates) missing
+        known = next(id(a) for e in t.nodes if id(e) in stale for a in e.args
+                     if isinstance(a, Expr) and id(a) not in stale and id(a) in base)
+        partial = {k: v for k, v in base.items() if k not in stale and k != known}
+        got = t.evaluate(outs, ops, values, partial, plan=("test", True))
+        for a, b in zip(got, want):
+            np.testing.assert_array_equal(a, b)

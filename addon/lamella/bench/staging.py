@@ -88,10 +88,11 @@ def budget_rows(progress=print) -> list[dict]:
             grid = st.grid
             dirs = grid.directions().reshape(-1, 3)
             full = _samples(stack, dirs)
+            views = lobe_budget.check_views(dirs, turn=st.frame == "shading" and grid.n_phi == 1)
             order = lobe_budget.merge_order(full, rule)
             for level in order:
                 if len(level) <= 8:
-                    row["errors"][len(level)] = lobe_budget.brdf_error(full, level, dirs)
+                    row["errors"][len(level)] = lobe_budget.brdf_error(full, level, views)
             auto = staging.stage(stack, budget="auto")
             row["auto"] = len(auto.closures)
             rows.append(row)
@@ -100,19 +101,11 @@ def budget_rows(progress=print) -> list[dict]:
 
 
 def _samples(stack, dirs):
+    """Every lobe of the model on the grid views ``dirs``."""
     from ..core.backends.closures import trace_closures
-    from ..core.backends.numpy_ops import NumpyOps
 
     traced = trace_closures(stack)
-    t = traced.tracer
-    values = dict(t.defaults)
-    values.update({n: dirs[:, k] for k, n in enumerate(staging.VIEW_INPUTS)})
-
-    def on_grid(exprs):
-        with np.errstate(all="ignore"):
-            vals = t.evaluate(list(exprs), NumpyOps(np.float64), values)
-        return [np.broadcast_to(np.asarray(v, dtype=np.float64), (dirs.shape[0],)) for v in vals]
-
+    on_grid = staging.grid_values(traced.tracer, dirs, ())
     return [lobe_budget.LobeSamples.of(c, on_grid, k) for k, c in enumerate(traced.closures)]
 
 

@@ -81,12 +81,14 @@ def _on_timer():
     wait = DEBOUNCE - (time.perf_counter() - _last_edit)
     if wait > 1e-3:
         return wait
-    flush()
-    return None
+    flush(defer_inspector=True)
+    return DEBOUNCE if _pending else None  # the lobe inspectors, on the next tick
 
 
-def flush() -> None:
-    """Do all pending work now; a node group no scene renders now waits (``flush_groups``)."""
+def flush(defer_inspector: bool = False) -> None:
+    """Do all pending work now; a node group no scene renders now waits (``flush_groups``). With
+    ``defer_inspector`` (the edit timer) the lobe inspectors of recompiled materials are only
+    scheduled: the material updates first, the panel's preview a tick later."""
     work = dict(_pending)
     _pending.clear()
     for key, shader in work.items():
@@ -94,7 +96,8 @@ def flush() -> None:
         if mat is None or not mat.lamella.enabled:
             continue
         if shader:
-            compile_material(mat, defer_group=not groups_needed())
+            if compile_material(mat, defer_group=not groups_needed(), inspect=not defer_inspector) and defer_inspector:
+                schedule_inspector(mat)
         else:
             from . import inspector
 
@@ -153,9 +156,10 @@ def build_shader(stack, model: str, live=(), budget="auto"):
     return shader, compile_source(shader.source, "lamella"), shader.model
 
 
-def install(mat, stack, built, t0: float | None = None, defer_group: bool = False) -> None:
+def install(mat, stack, built, t0: float | None = None, defer_group: bool = False, inspect: bool = True) -> None:
     """Put a built shader into ``mat`` and record what it shows. With ``defer_group`` a structure
-    change leaves the node group for ``flush_groups`` (a timer, a render or a save)."""
+    change leaves the node group for ``flush_groups`` (a timer, a render or a save); without
+    ``inspect`` the lobe inspector is left for the caller to refresh."""
     from ..core import luts
     from . import inspector, material_nodes
 
@@ -180,12 +184,14 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     settings.status_message = ""
     if t0 is not None:
         settings.compile_ms = (time.perf_counter() - t0) * 1e3
-    inspector.update(mat)
+    if inspect:
+        inspector.update(mat)
 
 
-def compile_material(mat, raise_errors: bool = False, defer_group: bool = False) -> bool:
+def compile_material(mat, raise_errors: bool = False, defer_group: bool = False, inspect: bool = True) -> bool:
     """Rebuild ``mat``'s shader from the stack its properties hold, under its model setting (and
-    its node group, unless ``defer_group``: see ``install``). On failure the status says why and
+    its node group, unless ``defer_group``; its lobe inspector unless not ``inspect``: see
+    ``install``). On failure the status says why and
     the material keeps its shader (with ``raise_errors`` the error is raised too). Returns whether
     it compiled."""
     from ..core.models import UnsupportedStack
@@ -205,7 +211,7 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False)
         if raise_errors:
             raise
         return False
-    install(mat, stack, built, t0, defer_group)
+    install(mat, stack, built, t0, defer_group, inspect)
     return True
 
 

@@ -64,10 +64,13 @@ class LobeSamples:
     members: list = field(default_factory=list)
     weight: np.ndarray | None = None
     index: int = -1
-    log_tensor: np.ndarray | None = field(default=None, repr=False)
+    tensor: tuple | None = field(default=None, repr=False)  # roughness tensor (xx, xy, yy) over the grid
+    log_tensor: tuple | None = field(default=None, repr=False)
+    log_stack: np.ndarray | None = field(default=None, repr=False)
     exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
-    row_brdf: dict = field(default_factory=dict, repr=False)  # grid row -> f cos on its wo grid (brdf_error)
+    row_brdf: dict = field(default_factory=dict, repr=False)  # CheckViews -> f cos at its directions (brdf_error)
     _delta: bool | None = field(default=None, repr=False)
+    _mean_energy: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
@@ -92,6 +95,13 @@ class LobeSamples:
         return [self.weight[:, ch] for ch in range(3)]
 
     @property
+    def mean_energy(self) -> np.ndarray:
+        """The energy averaged over the colour channels, at each grid view."""
+        if self._mean_energy is None:
+            self._mean_energy = self.energy.mean(-1)
+        return self._mean_energy
+
+    @property
     def is_delta(self) -> bool:
         if self._delta is None:
             a = [self.args[k] for k in ("ax", "ay", "alpha") if k in self.args]
@@ -100,59 +110,77 @@ class LobeSamples:
 
 
 # ---------------------------------------------------------------- roughness tensors
-def _tensor(s: LobeSamples) -> np.ndarray:
-    """(G, 2, 2) roughness tensors R diag(ax, ay) R^T of a GGX lobe (isotropic: alpha I)."""
-    a = s.args
-    if "ax" in a:
-        ax, ay, c, sn = (np.broadcast_to(a[k], s.energy.shape[:1]) for k in ("ax", "ay", "cos", "sin"))
-    else:
-        ax = ay = np.broadcast_to(a["alpha"], s.energy.shape[:1])
-        c, sn = np.ones_like(ax), np.zeros_like(ax)
-    r = np.stack([np.stack([c, -sn], -1), np.stack([sn, c], -1)], -2)
-    d = np.zeros(r.shape)
-    d[:, 0, 0], d[:, 1, 1] = ax, ay
-    return r @ d @ np.swapaxes(r, -1, -2)
+# A roughness tensor R diag(ax, ay) R^T is symmetric 2 x 2: it is kept as its three entries
+# (xx, xy, yy), each an array over the grid, and its eigen-decomposition is the closed form.
+def _tensor(s: LobeSamples) -> tuple:
+    """The roughness tensors (xx, xy, yy) of a GGX lobe over the grid (isotropic: alpha I)."""
+    if s.tensor is None:
+        a, g = s.args, s.energy.shape[:1]
+        if "ax" in a:
+            ax, ay, c, sn = (np.broadcast_to(np.asarray(a[k], dtype=np.float64), g) for k in ("ax", "ay", "cos", "sin"))
+            s.tensor = (ax * c * c + ay * sn * sn, (ax - ay) * c * sn, ax * sn * sn + ay * c * c)
+        else:
+            alpha = np.broadcast_to(np.asarray(a["alpha"], dtype=np.float64), g)
+            s.tensor = (alpha, np.zeros(g), alpha)
+    return s.tensor
 
 
-def _tensor_fn(t: np.ndarray, fn) -> np.ndarray:
-    w, v = np.linalg.eigh(t)
-    return v @ (fn(np.maximum(w, 0.0))[..., None] * np.swapaxes(v, -1, -2))
+def _eig(t) -> tuple:
+    """(smaller eigenvalue, larger eigenvalue, cos, sin of the larger's eigenvector) of the
+    symmetric tensors ``t``: the eigenvector at half the angle atan2(2 xy, xx - yy)."""
+    xx, xy, yy = t
+    m, h = 0.5 * (xx + yy), 0.5 * (xx - yy)
+    r = np.hypot(h, xy)
+    angle = 0.5 * np.arctan2(xy, h)
+    return m - r, m + r, np.cos(angle), np.sin(angle)
 
 
-def _power_mean(tensors, weights, p: float) -> np.ndarray:
+def _tensor_fn(t, fn, clip: bool = True) -> tuple:
+    """``fn`` of the symmetric tensors ``t`` (applied to their eigenvalues, clipped at 0 with
+    ``clip``)."""
+    small, big, c, s = _eig(t)
+    if clip:
+        small, big = np.maximum(small, 0.0), np.maximum(big, 0.0)
+    f_small, f_big = fn(small), fn(big)
+    return f_big * c * c + f_small * s * s, (f_big - f_small) * c * s, f_big * s * s + f_small * c * c
+
+
+def _power_mean(tensors, weights, p: float) -> tuple:
     """Energy-weighted power mean of roughness tensors: (sum w A^p / sum w)^(1/p), the
-    log-Euclidean mean at p = 0."""
-    total = np.maximum(sum(weights), 1e-30)[:, None, None]
+    log-Euclidean mean at p = 0 (``tensors`` then already their logarithms, ``_log_tensor``)."""
+    total = np.maximum(sum(weights), 1e-30)
+
+    def mean(ts):
+        return tuple(sum(w * t[k] for t, w in zip(ts, weights)) / total for k in range(3))
+
     if p == 0.0:
-        acc = sum(w[:, None, None] * _tensor_fn(t, lambda x: np.log(np.maximum(x, LOG_FLOOR)))
-                  for t, w in zip(tensors, weights))
-        w, v = np.linalg.eigh(acc / total)  # the exponential of a symmetric matrix (any sign)
-        return v @ (np.exp(w)[..., None] * np.swapaxes(v, -1, -2))
-    acc = sum(w[:, None, None] * _tensor_fn(t, lambda x: x ** p) for t, w in zip(tensors, weights))
-    return _tensor_fn(acc / total, lambda x: x ** (1.0 / p))
+        return _tensor_fn(mean(tensors), np.exp, clip=False)  # the exponential of a symmetric matrix (any sign)
+    return _tensor_fn(mean([_tensor_fn(t, lambda x: x ** p) for t in tensors]), lambda x: x ** (1.0 / p))
 
 
-def _args_of_tensor(kind, t: np.ndarray) -> dict:
+def _args_of_tensor(kind, t) -> dict:
     """The closure arguments of a merged lobe of ``kind`` from its roughness tensor."""
-    w, v = np.linalg.eigh(t)  # ascending eigenvalues
+    small, big, c, s = _eig(t)
+    ax, ay = np.maximum(big, 0.0), np.maximum(small, 0.0)
     if kind.name == "backscatter":
-        return {"alpha": np.sqrt(np.maximum(w[:, 0], 0.0) * np.maximum(w[:, 1], 0.0))}
-    ax, ay = np.maximum(w[:, 1], 0.0), np.maximum(w[:, 0], 0.0)
-    c, s = v[:, 0, 1], v[:, 1, 1]  # the eigenvector of the larger eigenvalue
+        return {"alpha": np.sqrt(ax * ay)}
     flip = c < 0.0
     c, s = np.where(flip, -c, c), np.where(flip, -s, s)
     iso = np.abs(ax - ay) <= 1e-9 * np.maximum(ax, 1e-30)
     return {"ax": ax, "ay": np.where(iso, ax, ay), "cos": np.where(iso, 1.0, c), "sin": np.where(iso, 0.0, s)}
 
 
-def _log_tensor(s: LobeSamples) -> np.ndarray:
+def _log_tensor(s: LobeSamples) -> tuple:
     if s.log_tensor is None:
         s.log_tensor = _tensor_fn(_tensor(s), lambda x: np.log(np.maximum(x, LOG_FLOOR)))
     return s.log_tensor
 
 
-def _log_distance(a: LobeSamples, b: LobeSamples) -> np.ndarray:
-    return np.sqrt(((_log_tensor(a) - _log_tensor(b)) ** 2).sum((-1, -2)))
+def _log_stack(s: LobeSamples) -> np.ndarray:
+    """The log roughness tensor's entries as one (3, G) array."""
+    if s.log_stack is None:
+        s.log_stack = np.stack(_log_tensor(s))
+    return s.log_stack
 
 
 def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
@@ -167,8 +195,9 @@ def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
     if not kind.rough:
         args = dict(group[0].args)
     else:
-        weights = [g.energy.mean(-1) for g in group]
-        args = _args_of_tensor(kind, _power_mean([_tensor(g) for g in group], weights, RULES[rule]))
+        weights = [g.mean_energy for g in group]
+        p = RULES[rule]
+        args = _args_of_tensor(kind, _power_mean([_log_tensor(g) if p == 0.0 else _tensor(g) for g in group], weights, p))
     return LobeSamples(kind, energy, args, label, group[0].lobe, members)
 
 
@@ -177,93 +206,151 @@ def _can_merge(a: LobeSamples, b: LobeSamples) -> bool:
     return a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta
 
 
-def _cost(a: LobeSamples, b: LobeSamples) -> float:
+def _costs(i: int, lobes: list[LobeSamples]) -> np.ndarray:
+    """The cost of merging ``lobes[i]`` with each lobe (inf where they cannot merge): the
+    squared distance of their log roughness tensors weighted by the smaller lobe's energy, summed
+    over the grid (zero for mirror and smooth lobes, which merge exactly)."""
+    a = lobes[i]
+    out = np.full(len(lobes), np.inf)
+    js = [j for j, b in enumerate(lobes) if j != i and _can_merge(a, b)]
+    if not js:
+        return out
     if a.is_delta or not a.kind.rough:
-        return 0.0
-    w = np.minimum(a.energy.mean(-1), b.energy.mean(-1))
-    return float((w * _log_distance(a, b) ** 2).sum())
+        out[js] = 0.0
+        return out
+    d = np.stack([_log_stack(lobes[j]) for j in js]) - _log_stack(a)  # (J, 3, G)
+    d2 = d[:, 0] ** 2 + 2.0 * d[:, 1] ** 2 + d[:, 2] ** 2
+    w = np.minimum(a.mean_energy, np.stack([lobes[j].mean_energy for j in js]))
+    out[js] = (w * d2).sum(-1)
+    return out
 
 
 def merge_order(samples: list[LobeSamples], rule: str = DEFAULT_RULE) -> list[list[LobeSamples]]:
     """The partitions of ``samples`` from every lobe alone down to the fewest closures merging
-    allows: element k has len(samples) - k groups, each merged greedily from the previous."""
+    allows: element k has len(samples) - k groups, each merged greedily from the previous (the
+    cheapest pair, the first in order among equals)."""
     current = [[s] for s in samples]
     merged = list(samples)
     out = [list(merged)]
-    costs: dict = {}  # (id, id) of two lobes -> their merge cost (None: they cannot merge)
-
-    def cost(a, b):
-        key = (id(a), id(b))
-        if key not in costs:
-            costs[key] = _cost(a, b) if _can_merge(a, b) else None
-        return costs[key]
-
-    while True:
-        best = None
-        for i in range(len(merged)):
-            for j in range(i + 1, len(merged)):
-                c = cost(merged[i], merged[j])
-                if c is not None and (best is None or c < best[0]):
-                    best = (c, i, j)
-        if best is None:
-            return out
-        _, i, j = best
+    n = len(merged)
+    cost = np.full((n, n), np.inf)  # cost[i, j], i < j: merging lobes i and j (inf: they cannot)
+    for i in range(n):
+        cost[i, i + 1:] = _costs(i, merged)[i + 1:]
+    while len(merged) > 1:
+        m = len(merged)
+        k = int(np.argmin(cost))  # row-major: the first pair among equal costs
+        i, j = divmod(k, m)
+        if not np.isfinite(cost[i, j]):
+            break
         current[i] = current[i] + current[j]
         del current[j]
         merged[i] = combine(current[i], rule)
         del merged[j]
+        cost = np.delete(np.delete(cost, j, 0), j, 1)
+        row = _costs(i, merged)
+        cost[i, i + 1:] = row[i + 1:]
+        cost[:i, i] = row[:i]
         out.append(list(merged))
+    return out
 
 
-def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], dirs: np.ndarray,
-               max_degrees: float = AUTO_MAX_DEGREES) -> float:
-    """The largest relative L1 (RGB averaged) of the merged lobes' BRDF against every lobe's, over
-    the upper hemisphere (``suite.wo_grid``), at the grid views up to ``max_degrees``. Mirror lobes
-    are left out of both (they merge only with each other, exactly)."""
-    from ..suite import wo_grid
+CHECK_DEGREES = (0.0, 30.0, 45.0, 60.0, 75.0)  # views the automatic budget checks
+CHECK_AZIMUTHS = (0.0, 0.5 * math.pi, 0.25 * math.pi, -0.6 * math.pi)  # at these azimuths, in the shading frame
 
+
+class CheckViews:
+    """The views at which merged lobes are held to every lobe: grid rows (where the lobes'
+    values are read), the view direction at each (the row's own, or the row's turned about the
+    normal where the grid has one azimuth node in the shading frame) and, for each view, the
+    outgoing directions of ``suite.wo_grid`` (concatenated; ``seg`` says whose). ``dirs``: the
+    grid's views (N, 3)."""
+
+    def __init__(self, dirs, rows, wi):
+        from ..suite import wo_grid
+
+        self.dirs = dirs
+        self.rows = np.asarray(rows, dtype=np.int64)
+        self.wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
+        wos = [wo_grid(w, 12, 16)[0] for w in self.wi]
+        self.seg = np.repeat(np.arange(len(wos)), [len(w) for w in wos])
+        self.wo = np.concatenate(wos) if wos else np.zeros((0, 3))
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+
+def check_views(dirs: np.ndarray, turn: bool = False, max_degrees: float = AUTO_MAX_DEGREES) -> CheckViews:
+    """The grid views nearest to CHECK_DEGREES (up to ``max_degrees``), at CHECK_AZIMUTHS: the
+    grid's nearest azimuth nodes, or with ``turn`` (a grid at phi = 0 whose values do not depend
+    on the azimuth) each row's view turned to those azimuths."""
     rows = check_rows(dirs, max_degrees)
-    worst = 0.0
-    ops = NumpyOps(np.float64)
+    if not turn:
+        return CheckViews(dirs, rows, dirs[rows])
+    out_rows, wi = [], []
     for r in rows:
-        wi = dirs[r]
-        wo, _ = wo_grid(wi, 12, 16)
-        wi_t = tuple(np.full(len(wo), wi[k]) for k in range(3))
-        wo_t = tuple(wo[:, k] for k in range(3))
+        for p in CHECK_AZIMUTHS:
+            c, s = math.cos(p), math.sin(p)
+            x, y, z = dirs[r]
+            out_rows.append(r)
+            wi.append((c * x - s * y, s * x + c * y, z))
+    return CheckViews(dirs, out_rows, wi)
 
-        def lobe_brdf(s):
-            # a lobe's f cos at this view, once per lobe and view: the bisection of the automatic
-            # budget compares many partitions that share most of their (merged) lobes
-            f = s.row_brdf.get(r)
-            if f is None:
-                a = {k: np.asarray(v)[r] for k, v in s.args.items()}
-                with np.errstate(all="ignore"):
-                    cos = np.broadcast_to(s.kind.cos_of_args(ops, a, wi_t, wo_t), (len(wo),))
-                w = np.array([c[r] for c in s.closure_weight(dirs)])
-                f = s.row_brdf[r] = cos[:, None] * w[None, :]
-            return f
 
-        def brdf(lobes):
-            f = np.zeros((len(wo), 3))
-            for s in lobes:
-                if not s.is_delta:
-                    f += lobe_brdf(s)
-            return f
+def brdf_error(full: list[LobeSamples], merged: list[LobeSamples], views: CheckViews) -> float:
+    """The largest relative L1 (RGB averaged) of the merged lobes' BRDF against every lobe's, over
+    the upper hemisphere (``suite.wo_grid``), at ``views`` (``check_views``). Mirror lobes are left
+    out of both (they merge only with each other, exactly)."""
+    if not len(views):
+        return 0.0
+    at = views.rows[views.seg]  # the grid row of each outgoing direction
 
-        ref = brdf(full)
-        denom = np.abs(ref).sum(0)
-        if np.all(denom <= 1e-12):
-            continue
-        err = np.abs(brdf(merged) - ref).sum(0) / np.maximum(denom, 1e-12)
-        worst = max(worst, float(err[denom > 1e-12].mean()))
+    def brdf(lobes):
+        _fill_brdf([s for s in lobes if not s.is_delta and views not in s.row_brdf], views)
+        f = np.zeros((len(at), 3))
+        for s in lobes:
+            if not s.is_delta:
+                f += s.row_brdf[views]
+        return f
+
+    def per_view(x):  # (M, 3) -> (V, 3) sums over each view's directions
+        return np.stack([np.bincount(views.seg, x[:, ch], len(views)) for ch in range(3)], -1)
+
+    ref = brdf(full)
+    denom = per_view(np.abs(ref))
+    err = per_view(np.abs(brdf(merged) - ref)) / np.maximum(denom, 1e-12)
+    worst = 0.0
+    for v in range(len(views)):
+        ok = denom[v] > 1e-12
+        if ok.any():
+            worst = max(worst, float(err[v][ok].mean()))
     return worst
 
 
-CHECK_DEGREES = (0.0, 30.0, 45.0, 60.0, 75.0)  # views the automatic budget checks (and 4 azimuths)
+def _fill_brdf(lobes: list[LobeSamples], views: CheckViews) -> None:
+    """Each lobe's f cos at every direction of ``views``, kept on the lobe (the bisection of the
+    automatic budget compares partitions that share most of their lobes): the lobes of one kind
+    are evaluated in one call, their arguments side by side."""
+    ops = NumpyOps(np.float64)
+    at = views.rows[views.seg]
+    m = len(at)
+    by_kind: dict = {}
+    for s in lobes:
+        by_kind.setdefault(s.kind.name, []).append(s)
+    for group in by_kind.values():
+        kind, n = group[0].kind, len(group)
+        args = {k: np.concatenate([np.broadcast_to(np.asarray(s.args[k], dtype=np.float64), s.energy.shape[:1])[at]
+                                   for s in group]) for k in group[0].args}
+        wi = tuple(np.tile(views.wi[views.seg, k], n) for k in range(3))
+        wo = tuple(np.tile(views.wo[:, k], n) for k in range(3))
+        with np.errstate(all="ignore"):
+            cos = np.broadcast_to(kind.cos_of_args(ops, args, wi, wo), (n * m,)).reshape(n, m)
+        for s, c in zip(group, cos):
+            s.row_brdf[views] = c[:, None] * np.stack(s.closure_weight(views.dirs), -1)[at]
 
 
 def check_rows(dirs: np.ndarray, max_degrees: float = AUTO_MAX_DEGREES) -> list[int]:
-    """The grid views nearest to CHECK_DEGREES (up to ``max_degrees``) at four azimuths."""
+    """The grid views nearest to CHECK_DEGREES (up to ``max_degrees``) at the azimuth nodes
+    nearest to CHECK_AZIMUTHS."""
     theta = np.degrees(np.arccos(np.clip(dirs[:, 2], -1.0, 1.0)))
     phi = np.arctan2(dirs[:, 1], dirs[:, 0])
     rows = set()
@@ -271,7 +358,7 @@ def check_rows(dirs: np.ndarray, max_degrees: float = AUTO_MAX_DEGREES) -> list[
         if t > max_degrees:
             continue
         near = np.abs(theta - theta[np.argmin(np.abs(theta - t))]) < 1e-9
-        for p in (0.0, 0.5 * math.pi, 0.25 * math.pi, -0.6 * math.pi):
+        for p in CHECK_AZIMUTHS:
             cand = np.nonzero(near)[0]
             rows.add(int(cand[np.argmin(np.abs(np.angle(np.exp(1j * (phi[cand] - p)))))]))
     return sorted(rows)
@@ -286,10 +373,11 @@ class Group:
 
 
 def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
-          rule: str = DEFAULT_RULE) -> list[Group]:
-    """The closures for ``samples`` (the baked lobes) under ``budget`` (``parse``); ``n_live``
-    closures of live lobes come on top and count against an integer budget and against
-    ``MAX_CLOSURES``, which no budget exceeds."""
+          rule: str = DEFAULT_RULE, views: CheckViews | None = None) -> list[Group]:
+    """The closures for ``samples`` (the baked lobes, on the grid views ``dirs``) under ``budget``
+    (``parse``); ``n_live`` closures of live lobes come on top and count against an integer budget
+    and against ``MAX_CLOSURES``, which no budget exceeds. ``views``: where the automatic budget
+    checks its error (default ``check_views(dirs)``)."""
     for k, s in enumerate(samples):
         if s.index < 0:
             s.index = k
@@ -301,12 +389,13 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
         pick = next((level for level in order if len(level) <= cap), order[-1])
     elif budget == "auto":
         # the fewest closures within tolerance: the error grows with merging, so bisect
+        views = check_views(dirs) if views is None else views
         lo, hi = 0, len(order) - 1  # order[lo] is within tolerance (every lobe: no error)
-        if brdf_error(samples, order[hi], dirs) <= AUTO_TOLERANCE:
+        if brdf_error(samples, order[hi], views) <= AUTO_TOLERANCE:
             lo = hi
         while hi - lo > 1:
             mid = (lo + hi) // 2
-            if brdf_error(samples, order[mid], dirs) <= AUTO_TOLERANCE:
+            if brdf_error(samples, order[mid], views) <= AUTO_TOLERANCE:
                 lo = mid
             else:
                 hi = mid

@@ -81,28 +81,39 @@ class NumpyOps:
     def lut(self, name: str, *coords):
         """Multilinear look-up in the named table (see ``lamella.core.luts``); coordinates are
         normalised to [0, 1] per axis and clamped."""
-        table = _luts.table(name).astype(self.dtype, copy=False)
-        return _multilinear(table, [np.asarray(c, dtype=self.dtype) for c in coords], self.dtype)
+        return _multilinear(_typed_table(name, self.dtype), [np.asarray(c, dtype=self.dtype) for c in coords],
+                            self.dtype)
+
+
+_TYPED: dict = {}  # (table name, dtype) -> the table in that precision
+
+
+def _typed_table(name: str, dtype) -> np.ndarray:
+    key = (name, np.dtype(dtype))
+    t = _TYPED.get(key)
+    if t is None or t.shape != _luts.table(name).shape:
+        t = _TYPED[key] = np.ascontiguousarray(_luts.table(name), dtype=dtype)
+    return t
 
 
 def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
     """Clamp-to-edge multilinear interpolation of ``table`` (axes in the order of ``coords``) at
-    coordinates in [0, 1] (node i of an axis with n nodes sits at i / (n - 1))."""
+    coordinates in [0, 1] (node i of an axis with n nodes sits at i / (n - 1)). The 2^d corners
+    are gathered at once, the first axis the fastest-varying bit of a corner's number; their
+    weights are products over the axes in axis order, summed in corner order."""
     coords = np.broadcast_arrays(*coords)
-    idx0, frac = [], []
-    for c, n in zip(coords, table.shape):
+    shape = coords[0].shape
+    table = np.ascontiguousarray(table)
+    strides = [s // table.itemsize for s in table.strides]
+    base = np.zeros(shape, dtype=np.int64)
+    w = np.ones((1,) + shape, dtype=dtype)
+    offsets = np.zeros(1, dtype=np.int64)
+    for c, n, stride in zip(coords, table.shape, strides):
         x = np.clip(c, 0.0, 1.0) * (n - 1)
         i = np.minimum(np.floor(x).astype(np.int64), n - 2)
-        idx0.append(i)
-        frac.append((x - i).astype(dtype))
-    out = np.zeros(coords[0].shape, dtype=dtype)
-    d = len(coords)
-    for corner in range(1 << d):
-        w = np.ones(coords[0].shape, dtype=dtype)
-        index = []
-        for axis in range(d):
-            bit = (corner >> axis) & 1
-            w = w * (frac[axis] if bit else (1 - frac[axis]))
-            index.append(idx0[axis] + bit)
-        out = out + w * table[tuple(index)]
-    return out
+        base = base + i * stride
+        f = (x - i).astype(dtype)
+        w = np.concatenate([w * (1 - f), w * f])
+        offsets = np.concatenate([offsets, offsets + stride])
+    corners = table.reshape(-1).take(base[None] + offsets.reshape((-1,) + (1,) * len(shape)))
+    return (w * corners).sum(0, dtype=dtype)

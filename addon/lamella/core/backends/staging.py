@@ -30,7 +30,7 @@ read that, never printed text.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -185,14 +185,6 @@ def isotropic(stack: Stack) -> bool:
 
 
 # ---------------------------------------------------------------- staging
-def _live_set(t: Tracer, live) -> dict[int, bool]:
-    out: dict[int, bool] = {}
-    for e in t.nodes:
-        out[id(e)] = (e.op == "param" and e.args[0] in live) or any(
-            isinstance(a, Expr) and out[id(a)] for a in e.args)
-    return out
-
-
 class _Columns:
     """The table under construction: float64 columns over the grid, one per distinct ``key`` (the
     value it stands for). A column the same at every node becomes a literal only where ``fold``
@@ -230,7 +222,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
     ``grid``: the view grid (default: ``N_MU`` nodes, times ``N_PHI`` azimuths where the stack is
-    anisotropic and its table varies with the azimuth, ``_without_azimuth``)."""
+    anisotropic and what its table holds varies with the azimuth, ``_azimuth_free``)."""
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
     if traced is None or traced.stack != stack:
@@ -243,34 +235,48 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                          f"(have: {', '.join(socket_names(defaults))})")
     live = params_of(live, defaults)
     frame = "view" if isotropic(stack) else "shading"
-    default_grid = grid is None
-    if grid is None:
-        grid = ViewGrid(N_MU, 1 if frame == "view" else N_PHI)
-    if frame == "view" and grid.n_phi != 1:
+    if grid is not None and frame == "view" and grid.n_phi != 1:
         raise ValueError("a stack staged in the view frame has one azimuth node")
-    is_live = _live_set(t, set(live))
-    dirs = grid.directions().reshape(-1, 3)
-    values = dict(t.defaults)
-    values.update({n: dirs[:, k] for k, n in enumerate(VIEW_INPUTS)})
-    np_ops = NumpyOps(np.float64)
-    grid_env: dict = {}  # one evaluation of the model on the grid, shared by every read of it
-
-    def on_grid(exprs):
-        with np.errstate(all="ignore"):
-            vals = t.evaluate(list(exprs), np_ops, values, grid_env)
-        return [np.broadcast_to(np.asarray(v, dtype=np.float64), (dirs.shape[0],)) for v in vals]
+    live_ids = t.reached_by(live)
 
     def live_expr(x):
-        return isinstance(x, Expr) and is_live[id(x)]
+        return isinstance(x, Expr) and id(x) in live_ids
 
     fixed, moving = [], []
     for c in traced.closures:
         (moving if any(live_expr(x) for x in (*c.weight, *c.args.values())) else fixed).append(c)
+    # what the table holds: every value of the baked lobes, and the view-only values the live
+    # lobes read (the boundary between what the table answers and what stays traced)
+    baked = [x for c in fixed for x in (*c.lobe.weight, *c.weight, *c.args.values())]
+    boundary = []
+    moving_outs = [x for c in moving for x in (*c.weight, *c.args.values())]
+    for e in t.live_nodes(moving_outs):
+        if id(e) in live_ids:
+            boundary += [a for a in e.args if isinstance(a, Expr) and id(a) not in live_ids]
+    boundary += [x for x in moving_outs if isinstance(x, Expr) and id(x) not in live_ids]
+    boundary = list({id(e): e for e in boundary if e.op != "input"}.values())
 
-    # the fully baked lobes, on the grid (every closure's values in one pass), merged to the budget
-    on_grid([x for c in fixed for x in (*c.lobe.weight, *c.weight, *c.args.values())])
+    # the model on the grid: each node once, shared by every read of it
+    if grid is not None:
+        on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
+        turn = False
+    elif frame == "view":
+        grid = ViewGrid(N_MU, 1)
+        on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
+        turn = False
+    else:  # the shading frame: one azimuth node where nothing the table holds depends on it
+        grid = ViewGrid(N_MU, 1)
+        on_grid = _azimuth_free(t, grid, [*baked, *boundary])
+        turn = on_grid is not None
+        if on_grid is None:
+            grid = ViewGrid(N_MU, N_PHI)
+            on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
+    dirs = grid.directions().reshape(-1, 3)
+
+    # the fully baked lobes, merged to the budget
     samples = [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c)) for c in fixed]
-    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), len(moving))
+    views = lobe_budget.check_views(dirs, turn)
+    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), len(moving), views=views)
     cols = _Columns((grid.n_mu, grid.n_phi))
 
     t2 = Tracer()
@@ -284,7 +290,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         k = cols.add(np.reshape(values_on_grid, (grid.n_mu, grid.n_phi)), key, fold)
         return k if isinstance(k, float) else t2.node("mtab", str(k), cc, pp)
 
-    reaches_param = _param_reach(t)
+    reaches_param = t.reached_by()
 
     closures = []
     merged = []
@@ -294,15 +300,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
 
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
-    boundary = []
-    for e in t.live_nodes([x for c in moving for x in (*c.weight, *c.args.values())]):
-        if is_live[id(e)]:
-            boundary += [a for a in e.args if isinstance(a, Expr) and not is_live[id(a)]]
-    for c in moving:
-        boundary += [x for x in (*c.weight, *c.args.values()) if isinstance(x, Expr) and not is_live[id(x)]]
-    boundary = list({id(e): e for e in boundary if e.op != "input"}.values())
     for e, v in zip(boundary, on_grid(boundary)):
-        env[id(e)] = read(v, ("expr", id(e)), not reaches_param[id(e)])
+        env[id(e)] = read(v, ("expr", id(e)), id(e) not in reaches_param)
     for name, x in zip(VIEW_INPUTS, wi2):
         if name in t.inputs:
             env[id(t.inputs[name])] = x
@@ -311,8 +310,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     def rebuild(x):
         return env[id(x)] if isinstance(x, Expr) else x
 
-    for e in t.live_nodes([x for c in moving for x in (*c.weight, *c.args.values())]):
-        if id(e) in env or not is_live[id(e)]:
+    for e in t.live_nodes(moving_outs):
+        if id(e) in env or id(e) not in live_ids:
             continue
         a = [a if isinstance(a, str) else rebuild(a) for a in e.args]
         if e.op == "param":
@@ -329,58 +328,83 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults)
-    return _without_azimuth(st) if default_grid and grid.n_phi > 1 else st
+    return st
 
 
-def _without_azimuth(st: Staged) -> Staged:
-    """``st`` with one azimuth node where no column of its table varies with the view's azimuth
-    (float32-exact): a stack with anisotropic layers whose lobes' energies and roughness tensors
-    depend on the elevation alone (the lobes' axes are fixed in the shading frame). The graph is
-    rebuilt with the azimuth coordinate 0, so what computed it (atan2) drops out."""
-    table = st.table
-    if not np.all(table == table[:, :1, :]):
-        return st
-    _, pp = st.coords
-    t2 = Tracer()
-    env: dict[int, object] = {id(pp): 0.0} if isinstance(pp, Expr) else {}
-    outs = [x for c in st.closures for x in (*c.weight, *c.args.values())]
-
-    def rebuild(x):
-        return env[id(x)] if isinstance(x, Expr) else x
-
-    reached, todo = set(), [x for x in outs if isinstance(x, Expr)]
-    while todo:  # what the closures read, not through the azimuth coordinate
-        e = todo.pop()
-        if id(e) not in reached and id(e) not in env:
-            reached.add(id(e))
-            todo += [a for a in e.args if isinstance(a, Expr)]
-    for e in st.tracer.nodes:
-        if id(e) not in reached:
-            continue
-        t2.set_scope(e.scope)
-        a = [a if isinstance(a, str) else rebuild(a) for a in e.args]
-        if e.op == "param":
-            env[id(e)] = t2.param(a[0], st.tracer.defaults[a[0]])
-        elif e.op == "input":
-            env[id(e)] = t2.input(a[0])
-        elif e.op == "select":
-            env[id(e)] = t2.select(*a)
-        else:
-            env[id(e)] = t2.node(e.op, *a)
-    wi2 = tuple(t2.input(n) for n in VIEW_INPUTS)
-    closures = [Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight), {k: rebuild(x) for k, x in c.args.items()},
-                        c.label) for c in st.closures]
-    cc = rebuild(st.coords[0])
-    return replace(st, grid=replace(st.grid, n_phi=1), table=np.ascontiguousarray(table[:, :1, :]), tracer=t2,
-                   wi=wi2, closures=closures, coords=(cc, 0.0))
+PROBE_AZIMUTHS = (0.0, 1.0, 2.6)  # radians: phi = 0 and two angles no symmetry of a layer maps to it
 
 
-def _param_reach(t: Tracer) -> dict[int, bool]:
-    """Whether a parameter reaches each node of ``t``."""
-    out: dict[int, bool] = {}
-    for e in t.nodes:
-        out[id(e)] = e.op == "param" or any(isinstance(a, Expr) and out[id(a)] for a in e.args)
-    return out
+def grid_values(t: Tracer, dirs: np.ndarray, outputs, select=None):
+    """``on_grid(exprs)``: the values of ``exprs`` (nodes of ``t``) at the view directions
+    ``dirs`` (N, 3), float64, each (N,) (or ``select`` of the evaluated arrays). The model is
+    evaluated for ``outputs`` at once; the evaluation is kept for the next staging of the same
+    graph on the same directions (``_EVALUATED``), which re-evaluates only the nodes that the
+    parameters whose values changed reach (a value edit)."""
+    env, changed = _evaluation(t, dirs)
+    np_ops = NumpyOps(np.float64)
+    values = dict(t.defaults)
+    values.update({n: dirs[:, k] for k, n in enumerate(VIEW_INPUTS)})
+    # a value edit: the same parameters changed again (a slider dragged) run compiled code
+    plan = ("grid", tuple(map(id, outputs)), changed) if changed else None
+    with np.errstate(all="ignore"):
+        t.evaluate(list(outputs), np_ops, values, env, plan)
+    n = dirs.shape[0]
+
+    def on_grid(exprs):
+        with np.errstate(all="ignore"):
+            vals = t.evaluate(list(exprs), np_ops, values, env)
+        vals = [np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)) for v in vals]
+        return vals if select is None else [select(v) for v in vals]
+
+    return on_grid
+
+
+_EVALUATED: dict = {}  # the last grid evaluation: the graph's memo, directions, parameter values, values
+KEEP_EVALUATION_VIEWS = 256  # kept only for grids this small (the azimuth probe, the view frame)
+
+
+def _evaluation(t: Tracer, dirs: np.ndarray) -> tuple[dict, frozenset | None]:
+    """The node values (id -> value) of the last evaluation of ``t``'s graph on ``dirs`` still
+    valid for ``t.defaults`` (those no changed parameter reaches), and the names of the changed
+    parameters; a fresh dict and None if there is none."""
+    last = _EVALUATED
+    same = last.get("memo") is t._memo and np.array_equal(last.get("dirs"), dirs) and last.get(
+        "params", {}).keys() == t.defaults.keys()
+    changed = None
+    if not same:
+        env: dict = {}
+    else:
+        env = last["env"]
+        changed = frozenset(k for k, v in t.defaults.items() if not _same_value(last["params"][k], v))
+        if changed:
+            stale = t.reached_by(changed)
+            for k in [k for k in env if k in stale]:
+                del env[k]
+    _EVALUATED.clear()
+    if dirs.shape[0] <= KEEP_EVALUATION_VIEWS:
+        _EVALUATED.update(memo=t._memo, dirs=dirs.copy(), params=dict(t.defaults), env=env)
+    return env, changed
+
+
+def _same_value(a, b) -> bool:
+    return np.array_equal(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+
+
+def _azimuth_free(t: Tracer, grid: ViewGrid, outputs):
+    """``on_grid`` over ``grid`` (one azimuth node, phi = 0) if no value in ``outputs`` depends on
+    the view's azimuth, else None. The values are evaluated at ``PROBE_AZIMUTHS`` and must agree in
+    float32 (what the table stores) at every elevation node."""
+    base = grid.directions()[:, 0, :]  # (n_mu, 3) at phi = 0
+    k = len(PROBE_AZIMUTHS)
+    c, s = np.cos(PROBE_AZIMUTHS), np.sin(PROBE_AZIMUTHS)
+    dirs = np.stack([base[:, None, 0] * c[None, :], base[:, None, 0] * s[None, :],
+                     np.broadcast_to(base[:, None, 2], (base.shape[0], k))], -1).reshape(-1, 3)
+    probe = grid_values(t, dirs, outputs)
+    for v in probe(outputs):
+        v32 = v.astype(np.float32).reshape(-1, k)
+        if not np.array_equal(v32, np.broadcast_to(v32[:, :1], v32.shape)):
+            return None
+    return grid_values(t, dirs, (), select=lambda v: v.reshape(-1, k)[:, 0])
 
 
 def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column, dirs, reaches_param) -> Closure:
@@ -393,7 +417,7 @@ def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column
 
     def read(values, field):
         e = exprs.get(field)
-        fold = field in exprs and not (isinstance(e, Expr) and reaches_param[id(e)])
+        fold = field in exprs and not (isinstance(e, Expr) and id(e) in reaches_param)
         return read_column(values, ("lobe", id(lobe), field) if e is None else ("expr", id(e)), fold)
 
     args = {}
@@ -479,5 +503,5 @@ def to_view_frame(wi, wo):
     return turn(wi), turn(wo)
 
 
-__all__ = ["ViewGrid", "Staged", "StagedOps", "stage", "lookup", "evaluate_staged", "isotropic",
+__all__ = ["ViewGrid", "Staged", "StagedOps", "stage", "grid_values", "lookup", "evaluate_staged", "isotropic",
            "to_view_frame", "N_MU", "N_PHI"]

@@ -74,6 +74,7 @@ class Tracer:
         self.defaults: dict[str, Any] = {}
         self.inputs: dict[str, Expr] = {}
         self._cache: dict[tuple, Expr] = {}
+        self._memo: dict = {}  # what ``nodes`` alone determines (shared by copies: see ``memo``)
         self.scope = "setup"  # the part of the model that creates the next nodes (for readable output)
 
     def set_scope(self, name: str) -> None:
@@ -140,44 +141,130 @@ class Tracer:
         return self.node("lut", name, *coords)
 
     # ---------------------------------------------------------------- inspection
-    def live_nodes(self, outputs) -> list[Expr]:
-        """Nodes reachable from ``outputs`` (values or Expr), in topological order."""
-        seen: set[int] = set()
+    def memo(self, key, build):
+        """``build()`` once per graph: structural facts (reach of parameters, node order) that
+        copies of this tracer with other defaults (``closures.trace_closures``) share. Valid
+        while no node is added, so the memo is dropped when the graph grows."""
+        if self._memo.get("_size") != len(self.nodes):
+            self._memo.clear()
+            self._memo["_size"] = len(self.nodes)
+        if key not in self._memo:
+            self._memo[key] = build()
+        return self._memo[key]
+
+    def _position(self) -> dict[int, int]:
+        return self.memo("position", lambda: {id(e): k for k, e in enumerate(self.nodes)})
+
+    def reached_by(self, names=None) -> frozenset[int]:
+        """The ids of the nodes that the parameters ``names`` (every parameter: None) reach."""
+        key = ("reached_by", None if names is None else frozenset(names))
+
+        def build():
+            out: set[int] = set()
+            for e in self.nodes:
+                if (e.op == "param" and (names is None or e.args[0] in names)) or any(
+                        isinstance(a, Expr) and id(a) in out for a in e.args):
+                    out.add(id(e))
+            return frozenset(out)
+
+        return self.memo(key, build)
+
+    def live_nodes(self, outputs, known=()) -> list[Expr]:
+        """Nodes reachable from ``outputs`` (values or Expr) without passing through a node whose
+        id is in ``known``, in topological order."""
+        seen: dict[int, Expr] = {}
         stack = [o for o in outputs if isinstance(o, Expr)]
         while stack:
             e = stack.pop()
-            if id(e) in seen:
+            if id(e) in seen or id(e) in known:
                 continue
-            seen.add(id(e))
+            seen[id(e)] = e
             stack.extend(a for a in e.args if isinstance(a, Expr))
-        return [e for e in self.nodes if id(e) in seen]
+        pos = self._position()
+        return [seen[k] for k in sorted(seen, key=pos.__getitem__)]
 
-    def evaluate(self, outputs, ops, values: dict[str, Any], env: dict | None = None):
+    def evaluate(self, outputs, ops, values: dict[str, Any], env: dict | None = None, plan=None):
         """Evaluate the graph on another backend (e.g. ``NumpyOps``) with leaf values by name.
         ``env`` (node id -> value) carries values between calls with the same ops and values: a
-        node evaluated once is not evaluated again."""
+        node evaluated once is not evaluated again. ``plan``: a hashable name for the shape of
+        this call (which outputs, which values ``env`` lacks); from the second call of a plan on,
+        the nodes it evaluates run as compiled straight-line code (``_compile``), the graph is not
+        walked again."""
         env = {} if env is None else env
 
         def val(a):
             return env[id(a)] if isinstance(a, Expr) else a
 
         missing = [o for o in outputs if isinstance(o, Expr) and id(o) not in env]
-        for e in self.live_nodes(missing) if missing else ():
-            if id(e) in env:
-                continue
-            a = [val(x) for x in e.args]
-            if e.op in ("param", "input"):
-                v = ops.param(a[0], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
-            elif e.op in _BINARY:
-                v = _BINARY[e.op](a[0], a[1])
-            elif e.op == "select":
-                v = ops.select(*a)
-            elif e.op == "lut":
-                v = ops.lut(a[0], *a[1:])
-            else:
-                v = getattr(ops, e.op)(*a)
-            env[id(e)] = v
+        entry = self._plan(plan) if plan is not None and missing else None
+        if entry is not None and entry.get("code") is not None:
+            try:
+                entry["code"](ops, values, env)
+            except KeyError:  # env lacks a value the plan took as known: walk the graph for it
+                pass
+            missing = [o for o in missing if id(o) not in env]
+        if missing:
+            nodes = self.live_nodes(missing, env)
+            if entry is not None and entry.get("code") is None:
+                entry["runs"] = entry.get("runs", 0) + 1
+                if entry["runs"] >= 2:
+                    entry["code"] = _compile(nodes, {id(e) for e in nodes})
+                    entry["code"](ops, values, env)
+                    nodes = ()
+            for e in nodes:
+                a = [val(x) for x in e.args]
+                if e.op in ("param", "input"):
+                    v = ops.param(a[0], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
+                elif e.op in _BINARY:
+                    v = _BINARY[e.op](a[0], a[1])
+                elif e.op == "select":
+                    v = ops.select(*a)
+                elif e.op == "lut":
+                    v = ops.lut(a[0], *a[1:])
+                else:
+                    v = getattr(ops, e.op)(*a)
+                env[id(e)] = v
         return [val(o) for o in outputs]
+
+    PLANS_KEPT = 8  # compiled plans per graph
+
+    def _plan(self, plan) -> dict:
+        plans = self.memo("plans", dict)
+        if plan not in plans:
+            compiled = [k for k, v in plans.items() if v.get("code") is not None]
+            if len(compiled) >= self.PLANS_KEPT:
+                del plans[compiled[0]]
+            plans[plan] = {}
+        return plans[plan]
+
+
+_SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/", "lt": "<", "le": "<=", "gt": ">", "ge": ">="}
+
+
+def _compile(nodes: list[Expr], own: set[int]):
+    """Straight-line Python for evaluating ``nodes`` (in order) on an ops backend: a function
+    ``(ops, values, env)`` that stores each node's value in ``env`` and reads the values of
+    arguments outside ``nodes`` from it (KeyError if absent), as ``Tracer.evaluate`` would."""
+    names = {id(e): f"v{k}" for k, e in enumerate(nodes)}
+    fns = sorted({e.op for e in nodes if e.op not in _SYMBOL and e.op not in ("param", "input")})
+    lines = ["def _evaluate(ops, values, env):"] + [f"    _{f} = ops.{f}" for f in fns]
+
+    def arg(a):
+        if isinstance(a, Expr):
+            return names[id(a)] if id(a) in own else f"env[{id(a)}]"
+        return repr(a) if not isinstance(a, float) or math.isfinite(a) else f"float({repr(a)!r})"
+
+    for e in nodes:
+        if e.op in ("param", "input"):
+            rhs = f"ops.{e.op}({e.args[0]!r}, values[{e.args[0]!r}])"
+        elif e.op in _SYMBOL:
+            rhs = f"{arg(e.args[0])} {_SYMBOL[e.op]} {arg(e.args[1])}"
+        else:
+            rhs = f"_{e.op}({', '.join(arg(a) for a in e.args)})"
+        lines.append(f"    {names[id(e)]} = env[{id(e)}] = {rhs}")
+    namespace: dict = {}
+    exec(compile("\n".join(lines + ["    return env"]), "<traced graph>", "exec"), namespace)
+    return namespace["_evaluate"]
 
 
 _FOLD = dict(_BINARY)
