@@ -83,20 +83,33 @@ class Tracer:
         self.scope = name
 
     # ---------------------------------------------------------------- graph building
-    def _key(self, a):
-        return ("n", a) if _is_num(a) else ("e", id(a))
-
     def node(self, op: str, *args) -> Expr | float:
-        args = tuple(float(a) if _is_num(a) else a for a in args)
+        # one pass over the operands: numbers become floats, the hash-consing key is built
+        norm, key, numbers = [], [op], True
         for a in args:
-            if not (_is_num(a) or isinstance(a, (Expr, str))):
+            t = type(a)
+            if t is Expr:
+                numbers = False
+                key.append(("e", id(a)))
+            elif t is float or (t is not bool and isinstance(a, (int, float))):
+                a = float(a)
+                key.append(("n", a))
+            elif isinstance(a, str):
+                numbers = False
+                key.append(a)
+            elif isinstance(a, Expr):
+                numbers = False
+                key.append(("e", id(a)))
+            else:
                 raise TypeError(f"cannot trace operand {a!r} of type {type(a).__name__}")
-        if all(_is_num(a) for a in args) and op in _FOLD:
+            norm.append(a)
+        args = tuple(norm)
+        if numbers and op in _FOLD:
             return _FOLD[op](*args)
         simplified = _simplify(op, args)
         if simplified is not None:
             return simplified
-        key = (op,) + tuple(a if isinstance(a, str) else self._key(a) for a in args)
+        key = tuple(key)
         hit = self._cache.get(key)
         if hit is not None:
             return hit
