@@ -57,3 +57,19 @@ def test_a_stack_with_more_lobes_than_closures_renders_its_energy():
     want = api.albedo(stack, np.array([[0.0, 0.0, 1.0]]))[0]
     # measured 0.6 % of the largest channel (16 closures); with 27 closures Cycles drew 0.33 of 0.48
     assert np.abs(got - want).max() < 0.02 * want.max(), (got, want)
+
+
+def test_a_textured_stack_with_more_live_lobes_than_closures_renders_its_energy():
+    """Lobes that read a linked input merge too (traced, with each other) as far as the cap
+    requires: eight coats with media and textures on two coat roughnesses and the base colour (27
+    live lobes) render in OSL the albedo of the stack (the sockets at the stack's values)."""
+    from lamella.bench.node_cost import textured_sockets
+    from lamella.bench.recompile import _stack
+
+    stack = _stack("8 coats + media", None)
+    live = textured_sockets(stack)
+    st = stage(stack, live=live)
+    assert st.lobes_all > lobe_budget.MAX_CLOSURES >= len(st.closures)
+    got = _furnace_centre(lambda sphere: assign_material(sphere, stack, "cycles-osl", live=live), res=32)
+    want = api.albedo(stack, np.array([[0.0, 0.0, 1.0]]))[0]
+    assert np.abs(got - want).max() < 0.02 * want.max(), (got, want)

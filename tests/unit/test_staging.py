@@ -191,3 +191,36 @@ def test_roughness_tensor_functions_in_closed_form_match_an_eigen_solver():
     args = lobe_budget._args_of_tensor(lobe_kinds.KINDS["reflection"], t)
     np.testing.assert_allclose(args["ax"], np.maximum(ax, ay), rtol=1e-9)
     np.testing.assert_allclose(args["ay"], np.minimum(ax, ay), rtol=1e-9)
+
+
+def _eight_coats_with_media() -> Stack:
+    d = suite.example("four_coats").to_dict()
+    dust = {"type": "coat", "ior": 1.0, "thickness": 0.3, "sigma_a": [0.1, 0.11, 0.13], "sigma_s": [1.5, 1.5, 1.5],
+            "g": 0.3}
+    d["layers"] = [dust] + [dict(c, thickness=0.5, sigma_a=[0.1, 0.2, 0.3]) for c in d["layers"]] + d["layers"][:3]
+    return Stack.from_dict(d)
+
+
+def test_live_lobes_merge_as_far_as_the_closure_cap_requires_and_follow_their_inputs():
+    """27 lobes that read linked inputs (two coat roughnesses and the base colour) merge, traced,
+    into at most MAX_CLOSURES closures; the shader follows its inputs: at other input values it
+    equals the model of the stack with those values (relative L1 < 1 %). Fewer live lobes than
+    the cap stay unmerged."""
+    stack = _eight_coats_with_media()
+    live = ["coat0_roughness", "coat1_roughness_x", "base_eta"]
+    st = staging.stage(stack, live=live)
+    assert st.lobes_all == 27 and len(st.closures) <= lobe_budget.MAX_CLOSURES
+    assert any(len(m) > 1 for m in st.merged)
+    d = stack.to_dict()
+    d["layers"][1]["roughness"] = [d["layers"][1]["roughness"][0] * 2.5, d["layers"][1]["roughness"][1]]
+    d["base"]["eta"] = [x * 0.7 for x in d["base"]["eta"]]
+    edited = Stack.from_dict(d)
+    values = staging.stage(edited, live=live, budget="all").params
+    for theta in (0.0, 40.0, 70.0):
+        wi = suite.incident(theta)
+        wo, _ = suite.wo_grid(wi)
+        want = api.evaluate(edited, wi, wo)
+        got = staging.evaluate_staged(st, wi, wo, np.float64, values=values)
+        assert np.abs(got - want).sum() / np.abs(want).sum() < 0.01, theta
+    few = staging.stage(suite.example("four_coats"), live=["coat0_roughness_x", "coat1_roughness", "base_eta"])
+    assert few.lobes_all == len(few.closures)

@@ -206,7 +206,7 @@ def draw_model(layout, mat) -> None:
         col.label(text=f"{s.closures} closures for {s.lobes_all} lobes", icon="SHADING_RENDERED")
         from ..core.backends.lobe_budget import MAX_CLOSURES
 
-        if s.closures > MAX_CLOSURES:  # only lobes that read linked inputs escape the budget
+        if s.closures > MAX_CLOSURES:  # only lobes that cannot merge (of different kinds) pass the cap
             _wrapped(col, f"Cycles with OSL draws about {MAX_CLOSURES + 1} closures per point and drops the "
                           "rest: unlink an input, or render with OSL off or in EEVEE.", "ERROR")
     col.label(text=f"Live: {s.live_params}" if s.live_params else "Live: nothing (every value baked)",

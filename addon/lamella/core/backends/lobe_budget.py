@@ -68,18 +68,19 @@ class LobeSamples:
     log_tensor: tuple | None = field(default=None, repr=False)
     log_stack: np.ndarray | None = field(default=None, repr=False)
     exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
+    live: bool = False  # it reads a linked input (merges only with lobes that do too, traced)
     row_brdf: dict = field(default_factory=dict, repr=False)  # CheckViews -> f cos at its directions (brdf_error)
     _delta: bool | None = field(default=None, repr=False)
     _mean_energy: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
-    def of(cls, closure, on_grid, index: int = -1) -> "LobeSamples":
+    def of(cls, closure, on_grid, index: int = -1, live: bool = False) -> "LobeSamples":
         vals = on_grid([*closure.lobe.weight, *closure.weight, *closure.args.values()])
         energy = np.stack(vals[0:3], -1)
         weight = np.stack(vals[3:6], -1)
         args = dict(zip(closure.args, vals[6:]))
         s = cls(closure.kind, energy, args, closure.label, closure.lobe, weight=weight, index=index,
-                exprs={**closure.args, **{f"weight{ch}": w for ch, w in enumerate(closure.weight)}})
+                exprs={**closure.args, **{f"weight{ch}": w for ch, w in enumerate(closure.weight)}}, live=live)
         s.members = [s]
         return s
 
@@ -198,12 +199,12 @@ def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
         weights = [g.mean_energy for g in group]
         p = RULES[rule]
         args = _args_of_tensor(kind, _power_mean([_log_tensor(g) if p == 0.0 else _tensor(g) for g in group], weights, p))
-    return LobeSamples(kind, energy, args, label, group[0].lobe, members)
+    return LobeSamples(kind, energy, args, label, group[0].lobe, members, live=group[0].live)
 
 
 # ---------------------------------------------------------------- which lobes merge
 def _can_merge(a: LobeSamples, b: LobeSamples) -> bool:
-    return a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta
+    return a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta and a.live == b.live
 
 
 def _costs(i: int, lobes: list[LobeSamples]) -> np.ndarray:
@@ -372,15 +373,33 @@ class Group:
     members: list
 
 
-def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int = 0,
-          rule: str = DEFAULT_RULE, views: CheckViews | None = None) -> list[Group]:
-    """The closures for ``samples`` (the baked lobes, on the grid views ``dirs``) under ``budget``
-    (``parse``); ``n_live`` closures of live lobes come on top and count against an integer budget
-    and against ``MAX_CLOSURES``, which no budget exceeds. ``views``: where the automatic budget
-    checks its error (default ``check_views(dirs)``)."""
+def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFAULT_RULE,
+          views: CheckViews | None = None) -> list[Group]:
+    """The closures for ``samples`` (every lobe, on the grid views ``dirs``) under ``budget``
+    (``parse``), never more than ``MAX_CLOSURES``. Lobes that read a linked input
+    (``LobeSamples.live``, valued at their sockets' values) count against an integer budget and
+    the cap; they merge (with each other only, traced by ``staging``) only as far as the cap
+    requires, since a merged live closure keeps its members' energies alive until they are summed,
+    which costs Cycles' SVM stack (four coats with three textured inputs: its five live lobes
+    render in SVM, merged to two they overflow it). ``views``: where the automatic budget checks
+    its error (default ``check_views(dirs)``)."""
+    baked = [s for s in samples if not s.live]
+    live = [s for s in samples if s.live]
     for k, s in enumerate(samples):
         if s.index < 0:
             s.index = k
+    groups = _merge_baked(baked, budget, dirs, len(live), rule, views)
+    room = max(MAX_CLOSURES - len(groups), 1)
+    if len(live) <= room:
+        return groups + [Group(s, [s]) for s in live]
+    order = merge_order(live, rule)
+    pick = next((level for level in order if len(level) <= room), order[-1])
+    return groups + [Group(s, s.members) for s in pick]
+
+
+def _merge_baked(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int, rule: str,
+                 views: CheckViews | None) -> list[Group]:
+    """``merge`` of the baked lobes, ``n_live`` closures of live lobes on top."""
     cap = max(MAX_CLOSURES - n_live, 1)
     if len(samples) <= 1 or (budget == "all" and len(samples) <= cap):
         return [Group(s, [s]) for s in samples]

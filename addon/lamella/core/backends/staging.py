@@ -248,13 +248,17 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     # what the table holds: every value of the baked lobes, and the view-only values the live
     # lobes read (the boundary between what the table answers and what stays traced)
     baked = [x for c in fixed for x in (*c.lobe.weight, *c.weight, *c.args.values())]
-    boundary = []
-    moving_outs = [x for c in moving for x in (*c.weight, *c.args.values())]
-    for e in t.live_nodes(moving_outs):
-        if id(e) in live_ids:
-            boundary += [a for a in e.args if isinstance(a, Expr) and id(a) not in live_ids]
-    boundary += [x for x in moving_outs if isinstance(x, Expr) and id(x) not in live_ids]
-    boundary = list({id(e): e for e in boundary if e.op != "input"}.values())
+
+    def boundary_of(outs):
+        found = []
+        for e in t.live_nodes(outs):
+            if id(e) in live_ids:
+                found += [a for a in e.args if isinstance(a, Expr) and id(a) not in live_ids]
+        found += [x for x in outs if isinstance(x, Expr) and id(x) not in live_ids]
+        return list({id(e): e for e in found if e.op != "input"}.values())
+
+    # a live lobe that merges reads its energy too (``_merged_live_closure``)
+    boundary = boundary_of([x for c in moving for x in (*c.lobe.weight, *c.weight, *c.args.values())])
 
     # the model on the grid: each node once, shared by every read of it
     if grid is not None:
@@ -273,10 +277,16 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
             on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
     dirs = grid.directions().reshape(-1, 3)
 
-    # the fully baked lobes, merged to the budget
+    # every lobe on the grid (a live one at its sockets' values), merged to the budget: baked lobes
+    # with baked ones, live lobes with live ones
     samples = [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c)) for c in fixed]
+    samples += [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c), live=True) for c in moving]
     views = lobe_budget.check_views(dirs, turn)
-    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), len(moving), views=views)
+    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views)
+    live_groups = [g for g in groups if g.lobe.live]
+    moving_outs = [x for g in live_groups for m in g.members for x in (
+        *(traced.closures[m.index].lobe.weight if len(g.members) > 1 else ()),
+        *traced.closures[m.index].weight, *traced.closures[m.index].args.values())]
     cols = _Columns((grid.n_mu, grid.n_phi))
 
     t2 = Tracer()
@@ -295,11 +305,13 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     closures = []
     merged = []
     for grp in groups:
-        merged.append([s.index for s in grp.members])
-        closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
+        if not grp.lobe.live:
+            merged.append([s.index for s in grp.members])
+            closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
 
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
+    boundary = boundary_of(moving_outs)
     for e, v in zip(boundary, on_grid(boundary)):
         env[id(e)] = read(v, ("expr", id(e)), id(e) not in reaches_param)
     for name, x in zip(VIEW_INPUTS, wi2):
@@ -321,10 +333,15 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         else:
             env[id(e)] = t2.node(e.op, *a)
     t2.set_scope("closures")
-    for c in moving:
-        merged.append([traced.closures.index(c)])
-        closures.append(Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight),
-                                {k: rebuild(x) for k, x in c.args.items()}, c.label))
+    for grp in live_groups:
+        members = [traced.closures[m.index] for m in grp.members]
+        merged.append([m.index for m in grp.members])
+        if len(members) == 1:
+            c = members[0]
+            closures.append(Closure(c.lobe, c.kind, tuple(rebuild(x) for x in c.weight),
+                                    {k: rebuild(x) for k, x in c.args.items()}, c.label))
+        else:
+            closures.append(_merged_live_closure(t2, wi2, members, rebuild, grp.lobe.label))
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults)
@@ -441,10 +458,45 @@ def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column
     return Closure(lobe.lobe, kind, weight, args, lobe.label)
 
 
-def _axes_of_tensor(ops, txx, tyy, txy) -> dict:
-    """(ax, ay, cos, sin) of the lobe whose roughness tensor is [[txx, txy], [txy, tyy]]: its
-    eigenvalues ax >= ay and the direction (cos, sin) of the first eigenvector, by the closed form
-    of a symmetric 2x2 matrix (the half angle of atan2(2 txy, txx - tyy))."""
+def _merged_live_closure(t2: Tracer, wi2, members: list, rebuild, label: str) -> Closure:
+    """One closure standing for live lobes of one kind (``members``, closures of the traced
+    model; ``rebuild`` maps their values into ``t2``), traced, by the rule ``lobe_budget.combine``
+    applies to baked lobes: the energies summed, the roughness tensor the energy-weighted
+    log-Euclidean mean of the members' (each member's from its own axes, so no eigen-decomposition
+    until the mean's), the weight that sum times the kind's normaliser at the merged arguments."""
+    kind = members[0].kind
+    energies = [tuple(rebuild(x) for x in c.lobe.weight) for c in members]
+    energy = tuple(sum(e[ch] for e in energies) for ch in range(3))
+    if not kind.rough:
+        args = {k: rebuild(x) for k, x in members[0].args.items()}
+    else:
+        weights = [(e[0] + e[1] + e[2]) * (1.0 / 3.0) for e in energies]
+        total = t2.max(sum(weights), 1e-30)
+
+        def log(x):
+            return t2.log(t2.max(x, lobe_budget.LOG_FLOOR))
+
+        if kind.name == "backscatter":
+            mean = sum(w * log(rebuild(c.args["alpha"])) for w, c in zip(weights, members)) / total
+            args = {"alpha": t2.exp(mean)}
+        else:
+            xx = yy = xy = 0.0
+            for w, c in zip(weights, members):
+                ax, ay, cs, sn = (rebuild(c.args[k]) for k in ("ax", "ay", "cos", "sin"))
+                lx, ly = log(ax), log(ay)
+                xx = xx + w * (lx * cs * cs + ly * sn * sn)
+                yy = yy + w * (lx * sn * sn + ly * cs * cs)
+                xy = xy + w * ((lx - ly) * cs * sn)
+            axes = _eigen_of_tensor(t2, xx / total, yy / total, xy / total)
+            args = {"ax": t2.exp(axes["big"]), "ay": t2.exp(axes["small"]), "cos": axes["cos"], "sin": axes["sin"]}
+    scale = kind.scale_of_args(t2, args, wi2)
+    return Closure(members[0].lobe, kind, tuple(e * scale for e in energy), args, label)
+
+
+def _eigen_of_tensor(ops, txx, tyy, txy) -> dict:
+    """The eigenvalues (``big`` >= ``small``, any sign) of the symmetric 2x2 matrix
+    [[txx, txy], [txy, tyy]] and the direction (``cos``, ``sin``) of the first eigenvector, by the
+    closed form (the half angle of atan2(2 txy, txx - tyy))."""
     m = (txx + tyy) * 0.5
     d = (txx - tyy) * 0.5
     r = ops.sqrt(d * d + txy * txy)
@@ -452,7 +504,15 @@ def _axes_of_tensor(ops, txx, tyy, txy) -> dict:
     cs = ops.sqrt(ops.max((1.0 + c2) * 0.5, 0.0))
     sn = ops.sqrt(ops.max((1.0 - c2) * 0.5, 0.0))
     sn = ops.select(txy < 0.0, 0.0 - sn, sn)
-    return {"ax": m + r, "ay": ops.max(m - r, 0.0), "cos": cs, "sin": sn}
+    return {"big": m + r, "small": m - r, "cos": cs, "sin": sn}
+
+
+def _axes_of_tensor(ops, txx, tyy, txy) -> dict:
+    """(ax, ay, cos, sin) of the lobe whose roughness tensor is [[txx, txy], [txy, tyy]]: its
+    eigenvalues ax >= ay (``_eigen_of_tensor``, the smaller clipped at 0) and the direction
+    (cos, sin) of the first eigenvector."""
+    e = _eigen_of_tensor(ops, txx, tyy, txy)
+    return {"ax": e["big"], "ay": ops.max(e["small"], 0.0), "cos": e["cos"], "sin": e["sin"]}
 
 
 def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = None) -> np.ndarray:
