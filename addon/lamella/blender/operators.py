@@ -77,10 +77,13 @@ class _MaterialOperator:
 
     def compiled(self, mat) -> None:
         """Compile now and report an error the compile met (the material keeps its last shader);
-        the node group waits where no scene renders it (``recompile.flush_groups``)."""
+        the node group waits where no scene renders it (``recompile.flush_groups``), the lobe
+        inspector refreshes a tick later (``recompile.schedule_inspector``)."""
         from . import recompile
 
-        if not recompile.compile_material(mat, defer_group=not recompile.groups_needed()):
+        if recompile.compile_material(mat, defer_group=not recompile.groups_needed(), inspect=False):
+            recompile.schedule_inspector(mat)
+        else:
             self.report({"WARNING"}, f"{mat.name}: {mat.lamella.status_message}")
 
 

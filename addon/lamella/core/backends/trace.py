@@ -170,14 +170,21 @@ class Tracer:
 
     def reached_by(self, names=None) -> frozenset[int]:
         """The ids of the nodes that the parameters ``names`` (every parameter: None) reach."""
+        if names is not None and not names:
+            return frozenset()
         key = ("reached_by", None if names is None else frozenset(names))
 
         def build():
             out: set[int] = set()
             for e in self.nodes:
-                if (e.op == "param" and (names is None or e.args[0] in names)) or any(
-                        isinstance(a, Expr) and id(a) in out for a in e.args):
-                    out.add(id(e))
+                if e.op == "param":
+                    if names is None or e.args[0] in names:
+                        out.add(id(e))
+                    continue
+                for a in e.args:
+                    if a.__class__ is Expr and id(a) in out:
+                        out.add(id(e))
+                        break
             return frozenset(out)
 
         return self.memo(key, build)
@@ -293,23 +300,38 @@ def _simplify(op, args):
     construction, x / 1), select on equal branches, x - x = 0 (x finite by construction) and
     min/max of a value with itself. With hash-consing these let structure the stack does not have
     vanish: an isotropic layer's x and y statistics are one node, so their difference, the
-    covariance and the lobe rotation fold to 0."""
-    if op in ("add", "sub") and _is_num(args[1]) and args[1] == 0.0:
-        return args[0]
-    if op == "add" and _is_num(args[0]) and args[0] == 0.0:
-        return args[1]
+    covariance and the lobe rotation fold to 0. (``Tracer.node`` hands numbers in as floats.)"""
     if op == "mul":
-        for i in (0, 1):
-            if _is_num(args[i]) and args[i] == 1.0:
-                return args[1 - i]
-            if _is_num(args[i]) and args[i] == 0.0:
+        a, b = args
+        if a.__class__ is float:
+            if a == 1.0:
+                return b
+            if a == 0.0:
                 return 0.0
-    if op == "div" and _is_num(args[1]) and args[1] == 1.0:
-        return args[0]
-    if op == "select" and args[1] is args[2]:
-        return args[1]
-    if op == "sub" and args[0] is args[1] and not _is_num(args[0]):
-        return 0.0
-    if op in ("min", "max") and args[0] is args[1]:
-        return args[0]
+        if b.__class__ is float:
+            if b == 1.0:
+                return a
+            if b == 0.0:
+                return 0.0
+        return None
+    if op == "add":
+        a, b = args
+        if b.__class__ is float and b == 0.0:
+            return a
+        if a.__class__ is float and a == 0.0:
+            return b
+        return None
+    if op == "sub":
+        a, b = args
+        if b.__class__ is float and b == 0.0:
+            return a
+        if a is b and a.__class__ is not float:
+            return 0.0
+        return None
+    if op == "div":
+        return args[0] if args[1].__class__ is float and args[1] == 1.0 else None
+    if op == "select":
+        return args[1] if args[1] is args[2] else None
+    if op in ("min", "max"):
+        return args[0] if args[0] is args[1] else None
     return None
