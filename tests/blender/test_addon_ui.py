@@ -110,3 +110,25 @@ def test_layer_list_draws_each_item(addon):
         ui.LAMELLA_UL_layers.draw_item(None, None, layout, mat.lamella, item, 0, mat.lamella, "active_index")
     _check(addon, layout)
     assert _paths(layout) == {"name", "show"}
+
+
+def test_the_node_group_note_says_what_svm_can_hold(addon):
+    """With OSL off the panel says the group renders the OSL shader's image, that it may not fit
+    Cycles' SVM stack where linked inputs keep a large part live (the estimate is rough there),
+    and that it renders black above what SVM holds."""
+    mat = addon.data.materials.new("ui_svm")
+    api.apply_stack(mat, suite.load("gold_coated"))
+    sc = addon.context.scene
+    engine, osl = sc.render.engine, sc.cycles.shading_system
+    try:
+        sc.render.engine = "CYCLES"
+        sc.cycles.shading_system = False
+        s = mat.lamella
+        for live, values, want in (("", 20, "the same image"), ("coat0_roughness", 120, "the same image"),
+                                   ("coat0_roughness", 206, "may render black"),
+                                   ("coat0_roughness", 290, "and renders black")):
+            s.live_params, s.node_live_values = live, values
+            text = " ".join(_draw(addon, mat).labels)
+            assert want in text, (live, values, text)
+    finally:
+        sc.render.engine, sc.cycles.shading_system = engine, osl

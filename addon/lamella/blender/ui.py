@@ -21,7 +21,7 @@ import textwrap
 
 import bpy
 
-from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK
+from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
 from .material_nodes import osl_usable
 from .operators import context_material
@@ -69,6 +69,11 @@ def draw_status(layout, context, mat) -> None:
                     f"values, Cycles holds about {SVM_STACK - SVM_HEADROOM}) and renders black: unlink an "
                     "input (baked values cost nothing), or use Cycles with OSL on the CPU.")
             box.alert = True
+        elif s.live_params and s.node_live_values > SVM_UNSURE:
+            note = (f"Cycles renders the node group ({why}); the part of it that reads the linked inputs "
+                    f"({s.live_params}) is near what Cycles holds ({s.node_live_values} live values, about "
+                    f"{SVM_STACK - SVM_HEADROOM} fit) and may render black: check a render, and if it is "
+                    "black unlink an input (baked values cost nothing) or use Cycles with OSL on the CPU.")
     elif sc.render.engine == "CYCLES":
         note = ("Cycles renders the OSL shader. With Open Shading Language off it renders the node group instead "
                 "(the same image where nothing linked is too large for it), and every shader of the scene "

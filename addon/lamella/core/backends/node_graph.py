@@ -377,6 +377,10 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
 # ---------------------------------------------------------------- register pressure
 SVM_STACK = 255  # floats Cycles' SVM keeps for the live values of one shader
 SVM_HEADROOM = 40  # measured: plans peaking at up to 162 live values render, one at 230 runs out
+# Textured stacks (bench/nodes.md, docs/node_groups.md): 121, 174 and 236 live values render,
+# 206 (eight coats with media, only the base colour linked), 290 and 364 render black: the
+# estimate orders them only roughly, so above this the panel says the group may not fit.
+SVM_UNSURE = 150
 
 
 def live_values(plan: Plan) -> int:
