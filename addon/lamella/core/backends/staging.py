@@ -25,7 +25,11 @@ read that, never printed text.
   R diag(ax, ay) R^T, which is smooth where (ax, ay, rotation) jump (an axis swap, a rotation
   wrapping by pi), and the axes are recovered from its eigen-decomposition.
 - **Lobe budget.** Lobes that are fully baked can be merged into fewer closures
-  (``lobe_budget.merge``), the trade of run time against error.
+  (``lobe_budget.merge``), the trade of run time against error; lobes that read a live parameter
+  merge with each other as far as the renderers' closure cap requires, traced
+  (``_merged_live_closure``).
+- **Edits.** The model's evaluation on the grid is kept between stagings of one graph
+  (``grid_values``): a value edit re-evaluates what the changed parameters reach.
 """
 from __future__ import annotations
 
