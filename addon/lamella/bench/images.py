@@ -22,10 +22,11 @@ from . import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
 
 SPP = 64
+BUDGET = "auto"  # the lobe budget of our shaders here: the default an artist gets
 ENGINES = ("cycles-osl", "principled", "eevee", "eevee-principled")
 
 
-def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget="auto"):
+def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget=BUDGET):
     """(image, seconds). EEVEE renders twice and times the second render: its first compiles the
     material's shader (``bench/nodes.md`` has that time), the frame time is the second's."""
     from ..blender.render import assign_material, build_scene, render_scene, render_stack
@@ -38,7 +39,7 @@ def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget="
     return render_scene(sc)
 
 
-def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR, budget="auto"):
+def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR, budget=BUDGET):
     """(figures dict, rendered image, reference image) for one case and engine, the shader's lobes
     merged to ``budget``."""
     ref = read_rgba(Path(ref_dir) / f"{name}.exr")
@@ -99,7 +100,7 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
     contact_sheet(sheet, Path(out_dir) / "images" / "contact_sheet.png", captions, ncols=4,
                   title="Generated OSL shader (ours) next to the brute-force reference, canonical sphere-env")
     jpath = Path(out_dir) / "images.json"
-    jpath.write_text(json.dumps({"spp": spp, "res": RES, "rows": rows}, indent=1) + "\n")
+    jpath.write_text(json.dumps({"spp": spp, "res": RES, "budget": BUDGET, "rows": rows}, indent=1) + "\n")
     mpath = Path(out_dir) / "images.md"
     mpath.write_text(format_markdown(rows, index, spp))
     return mpath, jpath
