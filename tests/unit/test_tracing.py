@@ -191,3 +191,20 @@ def test_a_compiled_plan_evaluates_as_the_graph_walk():
         got = t.evaluate(outs, ops, values, partial, plan=("test", True))
         for a, b in zip(got, want):
             np.testing.assert_array_equal(a, b)
+
+
+def test_compiled_plans_are_capped_over_every_graph(monkeypatch):
+    """At most ``COMPILED_KEPT`` plans hold compiled code at once; the oldest gives its code up."""
+    from lamella.core.backends import trace
+
+    monkeypatch.setattr(trace, "COMPILED_KEPT", 2)
+    monkeypatch.setattr(trace, "_COMPILED", [])
+    t = Tracer()
+    x = t.input("x")
+    outs = [x * float(k) + 1.0 for k in range(2, 6)]
+    ops = NumpyOps(np.float64)
+    for k, o in enumerate(outs[:3]):
+        for _ in range(2):
+            assert t.evaluate([o], ops, {"x": np.arange(3.0)}, {}, plan=k)[0].tolist() == [1.0, k + 3.0, 2 * k + 5.0]
+    plans = t.memo("plans", dict)
+    assert [plans[k].get("code") is not None for k in range(3)] == [False, True, True]

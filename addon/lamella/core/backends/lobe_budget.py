@@ -284,6 +284,18 @@ def check_views(dirs: np.ndarray, turn: bool = False, max_degrees: float = AUTO_
     """The grid views nearest to CHECK_DEGREES (up to ``max_degrees``), at CHECK_AZIMUTHS: the
     grid's nearest azimuth nodes, or with ``turn`` (a grid at phi = 0 whose values do not depend
     on the azimuth) each row's view turned to those azimuths."""
+    key = (dirs.shape, dirs.tobytes(), bool(turn), max_degrees)
+    if key not in _VIEWS:
+        if len(_VIEWS) >= 8:
+            _VIEWS.pop(next(iter(_VIEWS)))
+        _VIEWS[key] = _check_views(dirs, turn, max_degrees)
+    return _VIEWS[key]
+
+
+_VIEWS: dict = {}  # check_views of the grids staged lately (the same grid at every edit)
+
+
+def _check_views(dirs: np.ndarray, turn: bool, max_degrees: float) -> CheckViews:
     rows = check_rows(dirs, max_degrees)
     if not turn:
         return CheckViews(dirs, rows, dirs[rows])

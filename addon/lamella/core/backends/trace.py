@@ -229,6 +229,7 @@ class Tracer:
                 entry["runs"] = entry.get("runs", 0) + 1
                 if entry["runs"] >= 2:
                     entry["code"] = _compile(nodes, {id(e) for e in nodes})
+                    _keep_compiled(entry)
                     entry["code"](ops, values, env)
                     nodes = ()
             for e in nodes:
@@ -246,7 +247,7 @@ class Tracer:
                 env[id(e)] = v
         return [val(o) for o in outputs]
 
-    PLANS_KEPT = 8  # compiled plans per graph
+    PLANS_KEPT = 8  # compiled plans per graph (and ``COMPILED_KEPT`` over every graph)
 
     def _plan(self, plan) -> dict:
         plans = self.memo("plans", dict)
@@ -256,6 +257,19 @@ class Tracer:
                 del plans[compiled[0]]
             plans[plan] = {}
         return plans[plan]
+
+
+COMPILED_KEPT = 16  # compiled plans kept over every graph (one of a whole graph of eight coats with media: 4 MB)
+_COMPILED: list = []  # the plans' entries that hold code, oldest first
+
+
+def _keep_compiled(entry: dict) -> None:
+    """Note that ``entry`` now holds compiled code; past ``COMPILED_KEPT`` the oldest plan's code
+    is dropped (it compiles again if it runs twice more)."""
+    _COMPILED.append(entry)
+    while len(_COMPILED) > COMPILED_KEPT:
+        old = _COMPILED.pop(0)
+        old["code"], old["runs"] = None, 0
 
 
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/", "lt": "<", "le": "<=", "gt": ">", "ge": ">="}
