@@ -48,6 +48,7 @@ class RecordingLayout:
         self.root = root or self
         if root is None:
             self.props, self.operators, self.menus, self.lists, self.labels = [], [], [], [], []
+            self._operator_calls = []
         self.use_property_split = False
         self.use_property_decorate = True
         self.enabled = True
@@ -78,7 +79,14 @@ class RecordingLayout:
 
     def operator(self, idname, **kwargs):
         self.root.operators.append(idname)
-        return _OperatorProperties()
+        props = _OperatorProperties()
+        self.root._operator_calls.append((idname, props, self.enabled))
+        return props
+
+    @property
+    def enabled_operators(self) -> list:
+        """(operator id, its ``direction`` property or None, whether its layout was enabled)."""
+        return [(idname, getattr(props, "direction", None), on) for idname, props, on in self.root._operator_calls]
 
     def operator_menu_enum(self, idname, prop, **kwargs):
         self.root.operators.append(idname)

@@ -126,3 +126,36 @@ def test_export_osl_writes_a_bundle(addon, mat, tmp_path):
 
 def test_stack_error_is_the_api_error(addon):
     assert issubclass(StackError, ValueError)
+
+
+def test_remove_and_move_refuse_what_they_cannot_do_and_say_why(addon, mat):
+    s = mat.lamella
+    before = _names(mat)
+    s.active_index = len(s.coats)  # past the coats (the base row)
+    with pytest.raises(RuntimeError, match="select a coat to remove"):
+        addon.ops.lamella.layer_remove(material=mat.name)
+    assert _names(mat) == before
+    s.active_index = len(s.coats) - 1
+    with pytest.raises(RuntimeError, match="already the lowest coat"):
+        addon.ops.lamella.layer_move(material=mat.name, direction="DOWN")
+    s.active_index = 0
+    with pytest.raises(RuntimeError, match="already the top coat"):
+        addon.ops.lamella.layer_move(material=mat.name, direction="UP")
+    assert _names(mat) == before
+
+
+def test_list_buttons_are_greyed_out_where_they_cannot_act(addon, mat):
+    from lamella.blender import ui
+
+    from .addon_helpers import RecordingLayout
+
+    s = mat.lamella
+    for index, want in ((0, {"lamella.layer_remove": True, "up": False, "down": True}),
+                        (len(s.coats) - 1, {"up": True, "down": False}),
+                        (len(s.coats), {"lamella.layer_remove": False, "up": False, "down": False})):
+        s.active_index = index
+        layout = RecordingLayout()
+        ui.draw_layers(layout, mat)
+        got = {("up" if d == "UP" else "down") if op == "lamella.layer_move" else op: on
+               for op, d, on in layout.root.enabled_operators}
+        assert {k: got[k] for k in want} == want, index

@@ -47,3 +47,30 @@ def test_artist_mode_stores_eta_k_with_the_asked_reflectivity(addon):
     np.testing.assert_allclose(f0, (0.9, 0.5, 0.2), atol=1e-5)
     r, g = metals.complex_to_artistic(c.eta, c.k)
     np.testing.assert_allclose(g, (0.3, 0.6, 0.9), atol=1e-4)
+
+
+def test_malformed_user_preset_files_are_skipped_and_reported(addon):
+    from lamella.blender import operators, paths, ui
+
+    from .addon_helpers import RecordingLayout
+
+    folder = paths.user_presets_dir()
+    bad = {"deep.json": "[" * 5000 + "]" * 5000, "latin1.json": "{\"name\": \"caf\xe9\"}".encode("latin-1"),
+           "list.json": "[1, 2]", "huge_k.json": '{"layers": [], "base": {"type": "conductor", "k": 1e300}}',
+           "empty.json": ""}
+    try:
+        for name, text in bad.items():
+            (folder / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+        items = operators.preset_items()
+        assert not any(i[0].startswith("user:") and i[0][5:] + ".json" in bad for i in items)
+        assert [p.name for p, _ in presets.scan_user(folder)[1]] == sorted(bad)
+        m = addon.data.materials.new("after_bad_presets")
+        addon.ops.lamella.preset_apply(material=m.name, preset=presets.builtin()[0].id)
+        assert m.lamella.status == "OK"
+        layout = RecordingLayout()
+        menu = type("M", (), {"layout": layout})()
+        ui.LAMELLA_MT_presets.draw(menu, addon.context)
+        assert sum(t.startswith("Skipped ") for t in layout.labels) == len(bad)
+    finally:
+        for name in bad:
+            (folder / name).unlink(missing_ok=True)

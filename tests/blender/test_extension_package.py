@@ -47,3 +47,5 @@ def test_zip_installs_and_works_in_a_stock_session(built_zip, tmp_path):
     assert found["lobes"] >= 2
     assert found["cache_files"] >= 1, "compiled shaders are cached in the extension's user folder"
     assert found["written_into_extension"] == [], "nothing is written into the extension's folder"
+    # the process exits cleanly: the exit hook and Blender's own disable do not both unregister
+    assert "unregister_class" not in r.stderr and "Traceback" not in r.stderr, r.stderr[-3000:]

@@ -111,3 +111,44 @@ def test_back_facing_view_is_finite(model, dtype):
     cos = np.array([-1.0, -0.5, -1e-3, -1e-7, -0.0])
     wi = np.stack([np.sqrt(1.0 - cos * cos), np.zeros_like(cos), cos], -1)
     check_outputs(d, model, dtype, wi, edge_directions([])[:5])
+
+
+def _limit_stacks():
+    """A medium-filled coat over each base kind with one field at a hard limit of the schema (the
+    parser accepts nothing beyond these), one stack per (field, limit)."""
+    from lamella.core.layers import BASE_KINDS, COAT_KINDS
+
+    coat = {"ior": 1.5, "roughness": 0.2, "thickness": 1.0, "sigma_a": [0.5, 0.2, 0.1], "sigma_s": [1.0, 1.0, 1.0],
+            "g": 0.3}
+    out = []
+    for base_type, kind in BASE_KINDS.items():
+        for layer_kind, role in ((COAT_KINDS["coat"], "coat"), (kind, "base")):
+            for f in layer_kind.fields:
+                for x in (f.lo, f.hi):
+                    c, b = dict(coat), {"type": base_type}
+                    (c if role == "coat" else b)[f.name] = x
+                    out.append(pytest.param({"layers": [c, dict(coat, ior=1.2)], "base": b},
+                                            id=f"{base_type}-{role}.{f.name}={x:g}"))
+    return out
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("d", _limit_stacks())
+def test_every_model_is_finite_and_passive_at_the_schema_limits(d, dtype):
+    wi = edge_directions([0.2])
+    wo = edge_directions([0.2])[::-1]
+    ran = 0
+    for model in lc.MODELS:
+        if model == "auto":
+            continue
+        try:
+            check_outputs(d, model, dtype, wi, wo)
+            ran += 1
+        except lc.UnsupportedStack:
+            pass
+    assert ran >= 1
+    if dtype == np.float32:  # the baked path: the shaders' table and closures, in float32
+        from lamella.core.backends.staging import evaluate_staged, stage
+
+        f = evaluate_staged(stage(d), wi, wo, np.float32)
+        assert np.isfinite(f).all() and (f >= 0).all()

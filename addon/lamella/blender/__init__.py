@@ -34,7 +34,11 @@ def register():
 
 
 def unregister():
+    """Undo ``register``; a second call does nothing (the exit hook may have run first, and
+    Blender's ``addon_utils.disable`` then calls it again)."""
     global _registered
+    if not _registered:
+        return
     for m in reversed(_modules()):
         m.unregister()
     _registered = False

@@ -239,8 +239,11 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
         s = mat.lamella
         if not s.coats:
             raise ValueError("there is no coat to remove (the base stays)")
+        if not 0 <= s.active_index < len(s.coats):
+            raise ValueError(f"select a coat to remove (the active index {s.active_index} is no coat; "
+                             f"there are {len(s.coats)})")
         with recompile.suspended():
-            s.coats.remove(min(s.active_index, len(s.coats) - 1))
+            s.coats.remove(s.active_index)
             s.active_index = max(0, min(s.active_index, len(s.coats) - 1))
         self.compiled(mat)
 
@@ -259,8 +262,10 @@ class LAMELLA_OT_layer_move(_MaterialOperator, bpy.types.Operator):
         s = mat.lamella
         i = s.active_index
         j = i - 1 if self.direction == "UP" else i + 1
-        if not (0 <= i < len(s.coats) and 0 <= j < len(s.coats)):
-            return {"CANCELLED"}
+        if not 0 <= i < len(s.coats):
+            raise ValueError("select a coat to move")
+        if not 0 <= j < len(s.coats):
+            raise ValueError(f"coat {i} is already the {'top' if self.direction == 'UP' else 'lowest'} coat")
         with recompile.suspended():
             s.coats.move(i, j)
             s.active_index = j

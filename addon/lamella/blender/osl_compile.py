@@ -1,5 +1,5 @@
 """Compiling generated OSL through Blender's bundled compiler, with a cache by source hash and
-errors that show the offending lines (issue 3: "never a silent black material").
+errors that show the offending lines: never a silent black material.
 
 Cycles' own path (``cycles.osl.update_script_node``) compiles an INTERNAL text on every call and
 sends compiler errors to the process's stderr only. Here the source is compiled once per distinct
@@ -85,13 +85,29 @@ def format_errors(source: str, compiler_output: str, name: str, context: int = 2
     return "\n".join(out)
 
 
+def loads(oso: Path) -> bool:
+    """Whether Blender can read the compiled shader ``oso`` back (its parameters): a cache entry
+    written by another version, cut short or holding a value the reader rejects does not."""
+    try:
+        import oslquery
+    except ImportError:  # Blender before 4.5: no reader; the compiler's own success is the test
+        return oso.exists() and oso.stat().st_size > 0
+    try:
+        return bool(oslquery.OSLQuery(str(oso)))
+    except Exception:  # noqa: BLE001 - any failure to read means the entry is unusable
+        return False
+
+
 def compile_source(source: str, name: str = "shader") -> Path:
-    """The .oso of ``source``, compiled once per distinct source text. Raises OSLCompileError."""
+    """The .oso of ``source``, compiled once per distinct source text. A cached entry that does
+    not load (``loads``) is discarded and compiled again. Raises OSLCompileError."""
     import _cycles
 
     oso = cache_dir() / f"{source_hash(source)}.oso"
     if oso.exists() and oso.stat().st_size > 0:
-        return oso
+        if capture_stderr(lambda: loads(oso))[0]:
+            return oso
+        oso.unlink(missing_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         src = Path(tmp) / f"{name}.osl"
         src.write_text(source)
@@ -99,6 +115,9 @@ def compile_source(source: str, name: str = "shader") -> Path:
         ok, log = capture_stderr(lambda: _cycles.osl_compile(str(src), str(out)))
         if not ok or not out.exists():
             raise OSLCompileError(format_errors(source, log, name))
+        loaded, log = capture_stderr(lambda: loads(out))
+        if not loaded:
+            raise OSLCompileError(format_errors(source, log, name) + "\n  (compiled, but the result does not load)")
         tmp_oso = oso.with_suffix(f".{os.getpid()}.tmp")
         tmp_oso.write_bytes(out.read_bytes())
         tmp_oso.replace(oso)  # atomic: parallel test workers may compile the same shader

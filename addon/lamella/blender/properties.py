@@ -8,7 +8,7 @@ fields (``LAMELLA_PG_kind_<type>``); a layer item points to one of each kind of 
 
 Field types map to properties as follows (Blender's conventions at the UI boundary):
 
-- ``float``: a FloatProperty with the hard limits as min/max (open limits a hair inside) and the
+- ``float``: a FloatProperty with the hard limits as min/max (the parser's, closed) and the
   soft range as the slider range;
 - ``angle``: the same with the ANGLE subtype (stored in radians, shown in degrees);
 - ``rgb``: a 3-vector, COLOR subtype for reflectances (``Field.color``);
@@ -30,9 +30,6 @@ from ..core import metals
 from ..core.api import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 
-OPEN_MARGIN = 1e-3  # an open hard limit (ior > 0, |g| < 1) becomes a closed one this far inside
-
-
 def _on_edit(self, context):
     from . import recompile
 
@@ -46,11 +43,8 @@ def _on_inspect(self, context):
 
 
 def _limits(f) -> dict:
-    kw = {}
-    if f.lo is not None:
-        kw["min"] = f.lo + (OPEN_MARGIN * max(1.0, abs(f.lo)) if f.lo_open else 0.0)
-    if f.hi is not None:
-        kw["max"] = f.hi - (OPEN_MARGIN * max(1.0, abs(f.hi)) if f.hi_open else 0.0)
+    """The schema's hard limits (the parser's, so nothing it accepts is clamped) and soft range."""
+    kw = {"min": f.lo, "max": f.hi}
     if f.soft is not None:
         kw["soft_min"] = max(f.soft[0], kw.get("min", -math.inf))
         kw["soft_max"] = min(f.soft[1], kw.get("max", math.inf))

@@ -46,6 +46,31 @@ def suspended():
         _suspended -= 1
 
 
+def _report(mat, what: str, error: Exception) -> None:
+    """A failure while handling one material: its status says what failed (the material keeps
+    what it had), the traceback goes to the console, and the caller goes on with the next
+    material. Handlers never raise: one broken material must not cost another one its edits."""
+    import sys
+    import traceback
+
+    print(f"Lamella: {what} of material {getattr(mat, 'name', '?')!r} failed:", file=sys.stderr)
+    traceback.print_exception(error, file=sys.stderr)
+    try:
+        mat.lamella.status = "ERROR"
+        mat.lamella.status_message = f"{what} failed ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else ''})"
+    except Exception:  # noqa: BLE001 - a material that cannot even take its status
+        pass
+
+
+def _guarded(mat, what: str, fn, default=None):
+    """``fn()``, or ``default`` after ``_report`` if it raises."""
+    try:
+        return fn()
+    except Exception as e:  # noqa: BLE001 - see _report
+        _report(mat, what, e)
+        return default
+
+
 def _material(key: str):
     return next((m for m in bpy.data.materials if m.name_full == key), None)
 
@@ -96,12 +121,14 @@ def flush(defer_inspector: bool = False) -> None:
         if mat is None or not mat.lamella.enabled:
             continue
         if shader:
-            if compile_material(mat, defer_group=not groups_needed(), inspect=not defer_inspector) and defer_inspector:
+            done = _guarded(mat, "compiling the shader", lambda m=mat: compile_material(
+                m, defer_group=not groups_needed(), inspect=not defer_inspector), False)
+            if done and defer_inspector:
                 schedule_inspector(mat)
         else:
             from . import inspector
 
-            inspector.update(mat)
+            _guarded(mat, "the lobe inspector", lambda m=mat: inspector.update(m))
 
 
 def groups_needed() -> bool:
@@ -123,16 +150,20 @@ def flush_groups() -> None:
 
     work = sorted(_stale_groups)
     _stale_groups.clear()
-    for key in work:
-        mat = _material(key)
-        script = mat.node_tree.nodes.get(material_nodes.SCRIPT) if mat is not None and mat.node_tree else None
-        if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
-            continue
+
+    def build(mat):
         stack = Stack.from_json(mat.lamella.compiled_json)
         live = tuple(p for p in mat.lamella.live_params.split(", ") if p)
         material_nodes.install_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
         if bpy.context.scene is not None:
             material_nodes.wire_cycles(mat, bpy.context.scene)
+
+    for key in work:
+        mat = _material(key)
+        script = mat.node_tree.nodes.get(material_nodes.SCRIPT) if mat is not None and mat.node_tree else None
+        if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
+            continue
+        _guarded(mat, "building the node group", lambda m=mat: build(m))
 
 
 def _on_group_timer():
@@ -202,6 +233,8 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
 
     settings = mat.lamella
     t0 = time.perf_counter()
+    if settings.compiled_json:
+        _guarded(mat, "checking the nodes", lambda: repair_needed(mat))
     try:
         stack = Stack.from_dict(stack_dict(settings))
         built = build_shader(stack, settings.model, material_nodes.linked_sockets(mat), settings.lobe_budget)
@@ -211,8 +244,25 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
         if raise_errors:
             raise
         return False
+    except Exception as e:  # noqa: BLE001 - a defect: nothing was touched, the material keeps its shader
+        if raise_errors:
+            raise
+        _report(mat, "compiling the shader", e)
+        return False
     install(mat, stack, built, t0, defer_group, inspect)
+    material_nodes.drop_unused_texts()
     return True
+
+
+def repair_needed(mat) -> str | None:
+    """What is broken in ``mat``'s nodes (``material_nodes.broken``), after preparing the rebuild
+    that repairs it; None if nothing is."""
+    from . import material_nodes
+
+    why = material_nodes.broken(mat, group_pending=mat.name_full in _stale_groups)
+    if why:
+        material_nodes.prepare_repair(mat)
+    return why
 
 
 def links_changed(mat) -> bool:
@@ -242,7 +292,7 @@ def rewire(scene) -> int:
     changed = 0
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled:
-            changed += material_nodes.wire_cycles(mat, scene)
+            changed += _guarded(mat, "wiring the output", lambda m=mat: material_nodes.wire_cycles(m, scene), 0)
     return changed
 
 
@@ -253,12 +303,15 @@ _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles r
 def _before_render(scene, *_args):
     from .material_nodes import group_needed
 
-    for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile
-        if mat.library is None and mat.lamella.enabled and links_changed(mat):
-            _pending[mat.name_full] = True
+    for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
+        if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json:
+            if _guarded(mat, "reading the links", lambda m=mat: links_changed(m), False):
+                _pending[mat.name_full] = True
+            elif mat.name_full not in _pending and _guarded(mat, "checking the nodes", lambda m=mat: repair_needed(m)):
+                _pending[mat.name_full] = True
     if _pending:
         flush()
-    if _stale_groups and group_needed(scene):
+    if _stale_groups and _guarded(scene, "checking the engine", lambda: group_needed(scene), True):
         flush_groups()
     rewire(scene)
 
@@ -288,8 +341,9 @@ def _after_load(*_args):
     _stale_groups.clear()
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled:
-            material_nodes.refresh_lut_dir(mat, str(luts.DATA_DIR))
+            _guarded(mat, "pointing the shader at the tables", lambda m=mat: material_nodes.refresh_lut_dir(m, str(luts.DATA_DIR)))
             schedule_inspector(mat)
+    _guarded(None, "removing unused shader texts", material_nodes.drop_unused_texts)
 
 
 _HANDLERS = (("render_pre", _before_render), ("save_pre", _flush_before), ("load_post", _after_load),

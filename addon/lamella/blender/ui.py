@@ -44,6 +44,13 @@ def layer_icon(item) -> str:
 
 
 # ---------------------------------------------------------------- pieces
+def _broken(mat) -> str | None:
+    from . import recompile
+    from .material_nodes import broken
+
+    return broken(mat, group_pending=mat.name_full in recompile.stale_groups())
+
+
 def draw_status(layout, context, mat) -> None:
     s = mat.lamella
     box = layout.box()
@@ -51,6 +58,10 @@ def draw_status(layout, context, mat) -> None:
         box.alert = True
         _wrapped(box, s.status_message.splitlines()[0] if s.status_message else "error", "ERROR")
         box.label(text="The material keeps its last working shader.", icon="BLANK1")
+    elif s.status == "OK" and (why := _broken(mat)):
+        box.alert = True
+        _wrapped(box, f"Needs repair: {why}", "ERROR")
+        box.label(text="Repaired at the next render or edit, or with Recompile.", icon="BLANK1")
     elif s.status == "OK":
         picked = f"auto: {s.picked_model}" if s.model == "auto" else s.picked_model
         box.label(text=f"Compiled ({picked}, {s.compile_ms:.0f} ms)", icon="CHECKMARK")
@@ -102,12 +113,22 @@ def draw_layers(layout, mat) -> None:
     row.template_list("LAMELLA_UL_layers", "", s, "coats", s, "active_index", rows=4)
     col = row.column(align=True)
     col.menu("LAMELLA_MT_add_layer", icon="ADD", text="")
-    col.operator("lamella.layer_remove", icon="REMOVE", text="")
-    col.separator()
-    col.operator("lamella.layer_duplicate", icon="DUPLICATE", text="")
-    col.separator()
-    col.operator("lamella.layer_move", icon="TRIA_UP", text="").direction = "UP"
-    col.operator("lamella.layer_move", icon="TRIA_DOWN", text="").direction = "DOWN"
+    i, n = s.active_index, len(s.coats)
+    selected = 0 <= i < n
+    for enabled, draw in ((selected, lambda c: c.operator("lamella.layer_remove", icon="REMOVE", text="")),
+                          (None, lambda c: c.separator()),
+                          (selected, lambda c: c.operator("lamella.layer_duplicate", icon="DUPLICATE", text="")),
+                          (None, lambda c: c.separator()),
+                          (selected and i > 0, lambda c: setattr(c.operator("lamella.layer_move", icon="TRIA_UP",
+                                                                            text=""), "direction", "UP")),
+                          (selected and i < n - 1, lambda c: setattr(c.operator("lamella.layer_move", icon="TRIA_DOWN",
+                                                                                text=""), "direction", "DOWN"))):
+        if enabled is None:
+            draw(col)
+            continue
+        sub = col.row(align=True)  # greyed out where it cannot act, as Blender's list buttons are
+        sub.enabled = enabled
+        draw(sub)
     base = layout.row()
     base.label(text=f"Base: {BASE_KINDS[s.base.kind].type.title()}", icon=ICONS.get(s.base.kind, "DOT"))
 
@@ -309,6 +330,11 @@ class LAMELLA_MT_presets(bpy.types.Menu):
                 layout.separator()
                 layout.label(text="User Presets")
             layout.operator("lamella.preset_apply", text=label, icon=icon).preset = ident
+        from ..core.presets import scan_user
+        from .paths import user_presets_dir
+
+        for path, why in scan_user(user_presets_dir())[1]:
+            layout.label(text=f"Skipped {path.name}: {why}"[:120], icon="ERROR")
 
 
 class LAMELLA_MT_stack_files(bpy.types.Menu):

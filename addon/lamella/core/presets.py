@@ -38,17 +38,33 @@ def builtin() -> list[Preset]:
             for p in index["presets"]]
 
 
-def user(folder: Path | None) -> list[Preset]:
+MAX_PRESET_BYTES = 1_000_000  # a stack file is a few kB
+
+
+def scan_user(folder: Path | None) -> tuple[list[Preset], list[tuple[Path, str]]]:
+    """The user's presets in ``folder`` that load as stacks, and the files skipped, each with
+    why: one bad file never hides the others (or the built-in presets)."""
     if folder is None or not Path(folder).is_dir():
-        return []
-    out = []
+        return [], []
+    out, skipped = [], []
     for p in sorted(Path(folder).glob("*.json")):
         try:
-            name = json.loads(p.read_text()).get("name") or p.stem
-        except (OSError, ValueError, AttributeError):
-            name = p.stem  # listed all the same: loading it reports what is wrong
-        out.append(Preset(USER_PREFIX + p.stem, str(name), f"User preset ({p.name})", p, False))
-    return out
+            if p.stat().st_size > MAX_PRESET_BYTES:
+                raise StackError("stack", None, f"{p.stat().st_size} bytes; a preset takes at most {MAX_PRESET_BYTES}")
+            stack = Stack.from_json(p.read_text(encoding="utf-8"))
+        except StackError as e:
+            skipped.append((p, str(e)))
+            continue
+        except (OSError, ValueError) as e:
+            skipped.append((p, f"cannot read it ({e})"))
+            continue
+        out.append(Preset(USER_PREFIX + p.stem, stack.name or p.stem, f"User preset ({p.name})", p, False))
+    return out, skipped
+
+
+def user(folder: Path | None) -> list[Preset]:
+    """The user's presets in ``folder`` that load (``scan_user``)."""
+    return scan_user(folder)[0]
 
 
 def all_presets(user_folder: Path | None = None) -> list[Preset]:

@@ -14,6 +14,8 @@ from typing import Any, Mapping
 from .layers import BASE_KINDS, COAT_KINDS, Coat, Conductor, Dielectric, Diffuse, StackError
 
 MAX_COATS = 8
+MAX_NAME = 256  # characters in a stack's name (free text: shaders derive safe identifiers from it)
+MAX_JSON = 1_000_000  # characters of stack JSON: a stack of eight coats takes about 2,000
 
 Base = Conductor | Diffuse | Dielectric
 
@@ -33,10 +35,12 @@ class Stack:
             raise StackError("stack", None, f"expected an object, got {type(d).__name__}")
         for k in d:
             if k not in ("name", "layers", "base"):
-                raise StackError("stack", str(k), "unknown key (allowed: base, layers, name)")
+                raise StackError("stack", str(k)[:60], "unknown key (allowed: base, layers, name)")
         name = d.get("name", "")
         if not isinstance(name, str):
             raise StackError("stack", "name", f"expected a string, got {type(name).__name__}")
+        if len(name) > MAX_NAME:
+            raise StackError("stack", "name", f"{len(name)} characters; at most {MAX_NAME}")
         layers = d.get("layers", [])
         if not isinstance(layers, (list, tuple)):
             raise StackError("stack", "layers", f"expected a list of coats, got {type(layers).__name__}")
@@ -49,9 +53,17 @@ class Stack:
 
     @classmethod
     def from_json(cls, text: str) -> "Stack":
+        if not isinstance(text, (str, bytes, bytearray)):
+            raise StackError("stack", None, f"expected JSON text, got {type(text).__name__}")
+        if len(text) > MAX_JSON:
+            raise StackError("stack", None, f"{len(text)} characters of JSON; a stack takes at most {MAX_JSON}")
         try:
             d = json.loads(text)
         except json.JSONDecodeError as e:
+            raise StackError("stack", None, f"not valid JSON ({e})") from None
+        except RecursionError:
+            raise StackError("stack", None, "not a stack: JSON nested too deeply") from None
+        except (UnicodeDecodeError, ValueError) as e:
             raise StackError("stack", None, f"not valid JSON ({e})") from None
         return cls.from_dict(d)
 
@@ -89,9 +101,10 @@ def _parse_layer(layer: str, d: Any, kinds, default_type: str | None):
     if not isinstance(d, Mapping):
         raise StackError(layer, None, f"expected an object, got {type(d).__name__}")
     t = d.get("type", default_type)
-    if t not in kinds:
+    if not isinstance(t, str) or t not in kinds:
         role = "layers must be" if default_type else "expected one of"
-        raise StackError(layer, "type", f"{role} {', '.join(repr(k) for k in kinds)}, got {t!r}")
+        shown = repr(t) if len(repr(t)) <= 60 else repr(t)[:57] + "..."
+        raise StackError(layer, "type", f"{role} {', '.join(repr(k) for k in kinds)}, got {shown}")
     return kinds[t].parse(layer, d)
 
 

@@ -53,9 +53,22 @@ def _literal(x: float) -> str:
     return r if ("." in r or "e" in r) else r + ".0"
 
 
+IDENTIFIER_MAX = 64  # characters of a shader name derived from a stack's name
+
+
 def _identifier(name: str) -> str:
-    out = "".join(ch if ch.isalnum() else "_" for ch in name)
-    return out if out[:1].isalpha() else "s_" + out
+    """An OSL identifier from free text (a stack's name, any language): ASCII letters, digits and
+    underscores, starting with a letter, at most ``IDENTIFIER_MAX`` characters. Text that had to
+    lose characters (non-ASCII, or cut) keeps a short hash of the original, so two names stay two
+    identifiers."""
+    out = "".join(ch if ch.isascii() and ch.isalnum() else "_" for ch in name)
+    out = out if out[:1].isalpha() else "s_" + out
+    if not name.isascii() or len(out) > IDENTIFIER_MAX:
+        import hashlib
+
+        digest = hashlib.sha1(name.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+        out = out[: IDENTIFIER_MAX - 9].rstrip("_") + "_" + digest
+    return out
 
 
 class _Printer:

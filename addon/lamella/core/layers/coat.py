@@ -6,23 +6,25 @@ medium (dust, fog)."""
 from __future__ import annotations
 
 from .params import rgb_param, roughness_params
-from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, layer_kind
+from .schema import (ANGLE, ANGLE_MAX, FLOAT, G_MAX, IOR_MAX, IOR_MIN, RGB, ROUGHNESS, SIGMA_MAX, THICKNESS_MAX, Field,
+                     layer_kind)
 
 FIELDS = (
     Field("ior", FLOAT, 1.5, "index of refraction of the coat's interior (absolute)", "",
-          lo=0.0, lo_open=True, soft=(1.0, 3.0), label="IOR"),
+          lo=IOR_MIN, hi=IOR_MAX, soft=(1.0, 3.0), label="IOR"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the top interface: a number or [alpha_x, alpha_y]",
           "GGX alpha", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the interface's anisotropy axes about the normal", "rad",
-          soft=(-3.141592653589793, 3.141592653589793)),
-    Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, soft=(0.0, 10.0),
+          lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
+    Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, hi=THICKNESS_MAX,
+          soft=(0.0, 10.0),
           group="Medium"),
     Field("sigma_a", RGB, [0.0, 0.0, 0.0], "absorption coefficient of the interior", "1/length",
-          lo=0.0, soft=(0.0, 10.0), label="Absorption", group="Medium"),
+          lo=0.0, hi=SIGMA_MAX, soft=(0.0, 10.0), label="Absorption", group="Medium"),
     Field("sigma_s", RGB, [0.0, 0.0, 0.0], "scattering coefficient of the interior", "1/length",
-          lo=0.0, soft=(0.0, 10.0), label="Scattering", group="Medium"),
+          lo=0.0, hi=SIGMA_MAX, soft=(0.0, 10.0), label="Scattering", group="Medium"),
     Field("g", FLOAT, 0.0, "Henyey-Greenstein asymmetry of the interior's scattering", "",
-          lo=-1.0, hi=1.0, lo_open=True, hi_open=True, soft=(-0.99, 0.99), label="Phase Asymmetry g",
+          lo=-G_MAX, hi=G_MAX, soft=(-0.99, 0.99), label="Phase Asymmetry g",
           group="Medium"),
 )
 

@@ -3,17 +3,20 @@ measurements give it); under a coat of index n its interface sees ``(eta + i k) 
 from __future__ import annotations
 
 from .params import BaseResponse, rgb_param, roughness_params
-from .schema import ANGLE, RGB, ROUGHNESS, Field, layer_kind
+from .schema import ANGLE, ANGLE_MAX, RGB, ROUGHNESS, Field, layer_kind
+
+ETA_MIN, ETA_MAX = 1e-4, 1e3  # measured metals: eta 0.03 to 10
+K_MAX = 1e6  # a huge extinction is a mirror (Fresnel's limit k -> inf): 1 - R ~ 4 eta / k^2
 
 FIELDS = (
     Field("eta", RGB, [0.143, 0.374, 1.442], "real part of the complex index of refraction (absolute)", "",
-          lo=0.0, lo_open=True, soft=(0.01, 5.0), label="IOR (n)"),
+          lo=ETA_MIN, hi=ETA_MAX, soft=(0.01, 5.0), label="IOR (n)"),
     Field("k", RGB, [3.983, 2.385, 1.603], "extinction coefficient: imaginary part of the index", "",
-          lo=0.0, soft=(0.0, 10.0), label="Extinction (k)"),
+          lo=0.0, hi=K_MAX, soft=(0.0, 10.0), label="Extinction (k)"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha: a number or [alpha_x, alpha_y]", "GGX alpha",
           lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
-          soft=(-3.141592653589793, 3.141592653589793)),
+          lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
 )
 
 

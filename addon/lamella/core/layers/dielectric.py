@@ -4,16 +4,16 @@ under a rough interface; light crossing it leaves the stack downward (coated gla
 from __future__ import annotations
 
 from .params import BaseResponse, roughness_params
-from .schema import ANGLE, FLOAT, ROUGHNESS, Field, layer_kind
+from .schema import ANGLE, ANGLE_MAX, FLOAT, IOR_MAX, IOR_MIN, ROUGHNESS, Field, layer_kind
 from ..models.rgb import RGB as RGBValue
 
 FIELDS = (
-    Field("ior", FLOAT, 1.5, "index of refraction of the substrate (absolute)", "", lo=0.0, lo_open=True,
+    Field("ior", FLOAT, 1.5, "index of refraction of the substrate (absolute)", "", lo=IOR_MIN, hi=IOR_MAX,
           soft=(1.0, 3.0), label="IOR"),
     Field("roughness", ROUGHNESS, 0.0, "GGX alpha of the interface: a number or [alpha_x, alpha_y]", "GGX alpha",
           lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
-          soft=(-3.141592653589793, 3.141592653589793)),
+          lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
 )
 
 

@@ -10,6 +10,8 @@ once.
 from __future__ import annotations
 
 import math
+import numbers
+import struct
 from dataclasses import dataclass, field, make_dataclass
 from typing import Any, Callable, Mapping
 
@@ -25,6 +27,16 @@ class StackError(ValueError):
         super().__init__(f"{where}: {message}")
 
 
+FLOAT32_MAX = 3.4028234663852886e38  # the largest finite float32: shaders compute in float32
+
+# Hard limits shared by kinds (closed; ``Field``): wide enough for any physical material, narrow
+# enough that every model stays finite on them in float32 (tests/unit/test_stability.py)
+IOR_MIN, IOR_MAX = 0.01, 100.0  # a dielectric's index (coat interior, glass base)
+ANGLE_MAX = 1000.0  # radians either way: a rotation is meaningful modulo 2 pi
+THICKNESS_MAX = 1e4  # length units
+SIGMA_MAX = 1e6  # 1 / length units: optical depths up to 1e10
+G_MAX = 0.999999  # |g| < 1: Henyey-Greenstein's forward/backward limit is a delta
+
 # Value types a field can hold (what the parser accepts and what to_dict writes)
 FLOAT = "float"  # a finite number
 RGB = "rgb"  # three finite numbers (a single number is splatted)
@@ -36,8 +48,11 @@ ANGLE = "angle"  # radians, any finite value
 class Field:
     """One field of a layer kind.
 
-    ``lo``/``hi`` are hard limits (``None``: unbounded); ``lo_open``/``hi_open`` make them strict.
-    ``soft`` is the (lo, hi) range a UI slider offers. ``unit`` is shown next to the value.
+    ``lo``/``hi`` are the hard limits, closed, both required: a value outside is rejected, never
+    clamped, and the Blender property holding the field has the same min and max, so whatever the
+    parser accepts is stored as given (to float32 precision: bounds are compared in float32, the
+    precision Blender stores). Every limit lies well inside float32's range, the precision the
+    shaders compute in. ``soft`` is the (lo, hi) range a UI slider offers. ``unit`` is shown next to the value.
     ``label`` is the name a user interface shows (default: the field name in title case),
     ``color`` marks an RGB field that is a reflectance (a colour picker makes sense), and
     ``group`` names the collapsible part of a panel the field belongs to ("" : the main part)."""
@@ -49,8 +64,6 @@ class Field:
     unit: str = ""
     lo: float | None = None
     hi: float | None = None
-    lo_open: bool = False
-    hi_open: bool = False
     soft: tuple[float, float] | None = None
     label: str = ""
     color: bool = False
@@ -61,14 +74,11 @@ class Field:
         return self.label or self.name.replace("_", " ").title()
 
     def limits_text(self) -> str:
-        lo = "-inf" if self.lo is None else f"{self.lo:g}"
-        hi = "inf" if self.hi is None else f"{self.hi:g}"
-        return f"{'(' if self.lo_open or self.lo is None else '['}{lo}, {hi}{')' if self.hi_open or self.hi is None else ']'}"
+        return f"[{self.lo:g}, {self.hi:g}]"
 
     def check_bounds(self, layer: str, x: float, shown) -> None:
-        bad_lo = self.lo is not None and (x <= self.lo if self.lo_open else x < self.lo)
-        bad_hi = self.hi is not None and (x >= self.hi if self.hi_open else x > self.hi)
-        if bad_lo or bad_hi:
+        x32 = _f32(x)
+        if not (_f32(self.lo) <= x32 <= _f32(self.hi)):
             raise StackError(layer, self.name, f"must lie in {self.limits_text()}{' ' + self.unit if self.unit else ''}, "
                                                f"got {shown}")
 
@@ -79,18 +89,21 @@ class Field:
             self.check_bounds(layer, x, x)
             return x
         if self.type == RGB:
-            if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if isinstance(v, numbers.Real) and not isinstance(v, bool):
                 v = [v, v, v]
-            if not isinstance(v, (list, tuple)) or len(v) != 3:
-                raise StackError(layer, self.name, f"expected an RGB triple (3 numbers), got {v!r}")
+            v = _sequence(v)
+            if v is None or len(v) != 3:
+                raise StackError(layer, self.name, f"expected an RGB triple (3 numbers), got {_short(v)}")
             out = tuple(_number(layer, self.name, x) for x in v)
             for x in out:
                 self.check_bounds(layer, x, list(out))
             return out
         if self.type == ROUGHNESS:
-            if isinstance(v, (list, tuple)):
+            seq = _sequence(v)
+            if seq is not None:
+                v = seq
                 if len(v) != 2:
-                    raise StackError(layer, self.name, f"expected a number or [alpha_x, alpha_y], got {v!r}")
+                    raise StackError(layer, self.name, f"expected a number or [alpha_x, alpha_y], got {_short(v)}")
                 pair = tuple(_number(layer, self.name, x) for x in v)
             else:
                 x = _number(layer, self.name, v)
@@ -104,12 +117,40 @@ class Field:
         return list(value) if self.type in (RGB, ROUGHNESS) else value
 
 
+def _sequence(v):
+    """A list, tuple or one-dimensional numpy array as a list (None for anything else)."""
+    if isinstance(v, (list, tuple)):
+        return list(v)
+    if type(v).__name__ == "ndarray" and getattr(v, "ndim", 0) == 1:
+        return list(v)
+    return None
+
+
+def _short(v, n: int = 60) -> str:
+    """``repr(v)`` cut to ``n`` characters for a message."""
+    r = repr(v)
+    return r if len(r) <= n else r[: n - 3] + "..."
+
+
+def _f32(x: float) -> float:
+    """``x`` rounded to float32 (what a Blender property stores), as a Python float."""
+    return struct.unpack("f", struct.pack("f", x))[0]
+
+
 def _number(layer: str, name: str, v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise StackError(layer, name, f"expected a number, got {type(v).__name__} {v!r}")
-    x = float(v)
+    """A finite number from JSON, Python or numpy (``numbers.Real``: float32 and int64 scalars
+    from a pipeline's arrays are welcome; booleans are not numbers here)."""
+    if isinstance(v, bool) or type(v).__name__ == "bool_" or not isinstance(v, numbers.Real):
+        raise StackError(layer, name, f"expected a number, got {type(v).__name__} {_short(v, 40)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        raise StackError(layer, name, f"must be finite in float32 (at most {FLOAT32_MAX:.4g} in size), "
+                                      f"got an integer of {len(str(abs(int(v))))} digits") from None
     if not math.isfinite(x):
         raise StackError(layer, name, f"must be finite, got {x}")
+    if abs(x) > FLOAT32_MAX:
+        raise StackError(layer, name, f"must be finite in float32 (at most {FLOAT32_MAX:.4g} in size), got {x:g}")
     return x
 
 
@@ -140,7 +181,7 @@ class LayerKind:
         allowed = {"type"} | {f.name for f in self.fields}
         for k in d:
             if k not in allowed:
-                raise StackError(layer, str(k), f"unknown key (allowed: {', '.join(sorted(allowed))})")
+                raise StackError(layer, str(k)[:60], f"unknown key (allowed: {', '.join(sorted(allowed))})")
         return self.cls(**{f.name: f.parse(layer, d.get(f.name, f.default)) for f in self.fields})
 
     def to_dict(self, layer) -> dict[str, Any]:
@@ -151,6 +192,9 @@ def layer_kind(type_name: str, role: str, class_name: str, fields_: tuple[Field,
                params: Callable, response: Callable | None = None, namespace: dict | None = None) -> LayerKind:
     """Build a layer kind and its frozen dataclass (fields in schema order, defaults from the
     schema, a read-only ``type`` attribute, and ``kind``: the LayerKind itself)."""
+    for f in fields_:
+        if f.lo is None or f.hi is None or not (-FLOAT32_MAX < f.lo <= f.hi < FLOAT32_MAX):
+            raise ValueError(f"{type_name}.{f.name}: every field needs finite float32 hard limits lo <= hi")
     specs = [(f.name, Any, field(default=_frozen_default(f))) for f in fields_]
     specs.append(("type", str, field(default=type_name, init=False)))
     cls = make_dataclass(class_name, specs, frozen=True, namespace=dict(namespace or {}))
@@ -169,4 +213,4 @@ def _frozen_default(f: Field):
     return f.default
 
 
-__all__ = ["StackError", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]
+__all__ = ["StackError", "FLOAT32_MAX", "IOR_MIN", "IOR_MAX", "ANGLE_MAX", "THICKNESS_MAX", "SIGMA_MAX", "G_MAX", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]
