@@ -375,6 +375,8 @@ def build_group(plan: Plan, name: str, tree=None):
             s = bsdf.inputs[sock]
             if isinstance(v, Out):
                 nt.links.new(src(v), s)
+            elif sock == "IOR" and b.bl_idname in _INVERTS_ON_BACK_FACES:
+                nt.links.new(_facing_ior(g, v), s)
             else:
                 s.default_value = v
         for sock, comps in b.vectors.items():
@@ -392,6 +394,21 @@ def build_group(plan: Plan, name: str, tree=None):
     if shader is not None:
         nt.links.new(shader, gout.inputs["BSDF"])
     return tree
+
+
+# Cycles' refracting BSDF nodes take 1 / IOR on a back face (svm_node_closure_bsdf: ``eta =
+# (sd->flag & SD_BACKFACING) ? 1.0f / eta : eta``); the OSL closure the node stands for takes its
+# index as given on both sides. Without the correction, light inside a closed glass object meets
+# index 1 / 100 at the far side and is trapped.
+_INVERTS_ON_BACK_FACES = ("ShaderNodeBsdfRefraction",)
+
+
+def _facing_ior(g, ior: float):
+    """``ior`` on a front face and 1 / ``ior`` on a back face, so that a node that inverts its index
+    on back faces refracts with ``ior`` on both, as the OSL closure does."""
+    geo = g.node("ShaderNodeNewGeometry", {}, {}, out="Backfacing")
+    return g.node("ShaderNodeMath", {"operation": "MULTIPLY_ADD"},
+                  {"Value": geo, "Value_001": 1.0 / ior - ior, "Value_002": ior})
 
 
 def _sync_interface(tree, plan: Plan):
