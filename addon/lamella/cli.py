@@ -93,6 +93,19 @@ def cmd_references(a) -> int:
     return 0
 
 
+def cmd_stress(a) -> int:
+    from .bench import BENCH_DIR, stress
+
+    if not a.no_blender:
+        from .blender import register
+
+        register()
+    md, ok = stress.run(a.out or BENCH_DIR, quick=a.quick, stacks=a.stacks, blender=not a.no_blender)
+    print(md.read_text())
+    print(f"wrote {md}")
+    return 0 if ok else 1
+
+
 def cmd_bench(a) -> int:
     from .bench import BENCH_DIR
 
@@ -330,6 +343,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
     p.set_defaults(fn=cmd_bench)
+
+    p = sub.add_parser("stress", help="numerical stress: a million random stacks, a render grid of extreme stacks, "
+                                      "a soak of random edits (bench/stress.md)")
+    p.add_argument("--quick", action="store_true", help="a thousand stacks, a small grid, a short soak")
+    p.add_argument("--stacks", type=int, help="how many random stacks (default: 1,000,000; --quick: 1,000)")
+    p.add_argument("--no-blender", action="store_true", help="the random stacks only (no render grid, no soak)")
+    p.add_argument("--out", help="the folder to write stress.md into (default: bench/)")
+    p.set_defaults(fn=cmd_stress)
 
     p = sub.add_parser("export-osl", help="write a self-contained OSL bundle for a stack: shader, tables, README")
     p.add_argument("stack")

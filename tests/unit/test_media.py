@@ -169,7 +169,7 @@ def media_stacks(draw):
     layers = []
     for _ in range(n):
         layers.append({
-            "ior": draw(st.sampled_from([1.0, 1.0 + 1e-7, 0.5, 1.5, 3.0]) | st.floats(0.2, 4.0)),
+            "ior": draw(st.sampled_from([1.0, 1.0 + 1e-7, 0.5, 1.5, 3.0]) | st.floats(0.25, 4.0)),  # the schema limits
             "roughness": draw(st.sampled_from([0.0, 1e-6, 0.3, 1.0]) | unit),
             "thickness": draw(st.sampled_from([0.0, 1e-6, 1.0, 1e3]) | st.floats(0.0, 1e3)),
             "sigma_a": [draw(coeff) for _ in range(3)],
@@ -182,7 +182,7 @@ def media_stacks(draw):
     elif kind == "diffuse":
         base = {"type": "diffuse", "albedo": [draw(unit) for _ in range(3)]}
     else:
-        base = {"type": "dielectric", "ior": draw(st.sampled_from([1.0, 1.5, 0.7]) | st.floats(0.2, 4.0)),
+        base = {"type": "dielectric", "ior": draw(st.sampled_from([1.0, 1.5, 0.7]) | st.floats(0.25, 4.0)),  # the schema limits
                 "roughness": draw(unit)}
     return {"layers": layers, "base": base}
 

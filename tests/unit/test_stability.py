@@ -10,11 +10,11 @@ import lamella.core as lc
 MODELS = ["belcour2018", "weier2020", "yamaguchi2019"]
 
 EDGE_ROUGHNESS = [0.0, 1e-7, 1e-3, 0.5, 1.0 - 1e-7, 1.0]
-EDGE_IOR = [1.0, 1.0 + 1e-7, 1.0 - 1e-7, 0.3, 0.8, 1.5, 3.0, 5.0]
+EDGE_IOR = [1.0, 1.0 + 1e-7, 1.0 - 1e-7, 0.25, 0.3, 0.8, 1.5, 3.0, 4.0]
 EDGE_K = [0.0, 1e-6, 1.0, 50.0]
 
 roughness = st.one_of(st.sampled_from(EDGE_ROUGHNESS), st.floats(0.0, 1.0))
-ior = st.one_of(st.sampled_from(EDGE_IOR), st.floats(0.05, 6.0))
+ior = st.one_of(st.sampled_from(EDGE_IOR), st.floats(0.25, 4.0))  # the schema's limits (IOR_MIN, IOR_MAX)
 angle = st.one_of(st.sampled_from([0.0, 0.5, np.pi / 2, -1.0, 7.0]), st.floats(-7.0, 7.0))
 coeff = st.one_of(st.sampled_from([0.0, 1e-6, 1.0, 1e3]), st.floats(0.0, 50.0))
 
@@ -87,7 +87,7 @@ EXTREMES = [
     {"layers": [{"ior": 1.0 + 1e-7, "roughness": [1.0, 0.0], "rotation": 1.0,
                  "thickness": 100.0, "sigma_a": [1000.0, 0.0, 1e-6]}] * 8,
      "base": {"type": "conductor", "eta": [0.05, 0.05, 0.05], "k": [0.0, 1e-6, 50.0], "roughness": [0.0, 1.0]}},
-    {"layers": [{"ior": 5.0, "roughness": 0.0}, {"ior": 0.3, "roughness": 1e-7}, {"ior": 6.0, "roughness": 1.0}],
+    {"layers": [{"ior": 4.0, "roughness": 0.0}, {"ior": 0.25, "roughness": 1e-7}, {"ior": 4.0, "roughness": 1.0}],
      "base": {"type": "conductor", "eta": [6.0, 6.0, 6.0], "k": [0.0, 0.0, 0.0], "roughness": 0.0}},
 ]
 

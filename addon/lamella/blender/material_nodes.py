@@ -100,6 +100,33 @@ def drop_unused_texts() -> int:
     return len(gone)
 
 
+
+
+def drop_unused_data() -> int:
+    """Remove what Lamella made that nothing uses any more: shader texts (``drop_unused_texts``),
+    node groups (a structure edit replaces nested groups; a deleted material leaves its group) and
+    material-table images. Blender keeps data with no users in the saved file, so without this
+    every structure edit would grow the .blend. Returns how many went."""
+    import bpy
+
+    from .node_group import CHUNK_PREFIX, SECTION_PREFIX
+
+    own = (CHUNK_PREFIX, SECTION_PREFIX, "Lamella ")
+    gone = drop_unused_texts()
+    while True:  # a group removed frees the nested groups it used
+        groups = [g for g in bpy.data.node_groups if g.library is None and g.users == 0
+                  and g.name.startswith(own) and (not g.name.startswith("Lamella ") or STRUCTURE_KEY in g)]
+        if not groups:
+            break
+        for g in groups:
+            bpy.data.node_groups.remove(g)
+        gone += len(groups)
+    images = [i for i in bpy.data.images if i.library is None and i.users == 0 and i.name.startswith(TABLE_IMAGE_PREFIX)]
+    for i in images:
+        bpy.data.images.remove(i)
+    return gone + len(images)
+
+
 NOT_PARAMS = ("Normal", "Tangent", "lut_dir")  # sockets of the Script node and group that are no model parameter
 
 
@@ -184,8 +211,11 @@ def group_needed(scene) -> bool:
     return engine.startswith("BLENDER_EEVEE") or (engine == "CYCLES" and not osl_usable(scene))
 
 
+TABLE_IMAGE_PREFIX = ".lamella_table "
+
+
 def table_image_name(mat) -> str:
-    return f".lamella_table {mat.name}"
+    return f"{TABLE_IMAGE_PREFIX}{mat.name}"
 
 
 def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | None:

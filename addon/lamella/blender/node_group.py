@@ -113,11 +113,18 @@ def _depths(plan: Plan, nodes: list[int]) -> dict[int, int]:
 
 
 # ---------------------------------------------------------------- chunks
+def _intact(tree) -> bool:
+    """Whether a nested group can be reused: every image it reads is still there."""
+    return all(n.image is not None for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+
+
 def _chunk_group(plan: Plan, chunk):
     """The nested group of one chunk, reused when a group of the same content exists."""
     tree = bpy.data.node_groups.get(f"{CHUNK_PREFIX}{chunk.digest}")
-    if tree is not None:
+    if tree is not None and _intact(tree):
         return tree
+    if tree is not None:  # an image it read was deleted: built again under the same name
+        tree.name = f"{tree.name}.broken"
     tree = _new_tree(plan, f"{CHUNK_PREFIX}{chunk.digest}", chunk)
     nt = tree
     depth = _depths(plan, chunk.nodes)
@@ -175,8 +182,11 @@ def _new_tree(plan: Plan, name: str, chunk):
 def _section_group(plan: Plan, section):
     """The nested group of a section: its chunks' groups, wired; reused like a chunk's."""
     tree = bpy.data.node_groups.get(f"{SECTION_PREFIX}{section.digest}")
-    if tree is not None:
+    if tree is not None and all(n.node_tree is not None and _intact(n.node_tree)
+                                for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"):
         return tree
+    if tree is not None:
+        tree.name = f"{tree.name}.broken"
     tree = _new_tree(plan, f"{SECTION_PREFIX}{section.digest}", section)
     nt = tree
     gin = nt.nodes.new("NodeGroupInput")

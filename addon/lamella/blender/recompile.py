@@ -164,6 +164,8 @@ def flush_groups() -> None:
         if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
             continue
         _guarded(mat, "building the node group", lambda m=mat: build(m))
+    if work:
+        _guarded(None, "removing unused data", material_nodes.drop_unused_data)
 
 
 def _on_group_timer():
@@ -250,7 +252,7 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
         _report(mat, "compiling the shader", e)
         return False
     install(mat, stack, built, t0, defer_group, inspect)
-    material_nodes.drop_unused_texts()
+    material_nodes.drop_unused_data()
     return True
 
 
@@ -343,7 +345,7 @@ def _after_load(*_args):
         if mat.library is None and mat.lamella.enabled:
             _guarded(mat, "pointing the shader at the tables", lambda m=mat: material_nodes.refresh_lut_dir(m, str(luts.DATA_DIR)))
             schedule_inspector(mat)
-    _guarded(None, "removing unused shader texts", material_nodes.drop_unused_texts)
+    _guarded(None, "removing unused data", material_nodes.drop_unused_data)
 
 
 _HANDLERS = (("render_pre", _before_render), ("save_pre", _flush_before), ("load_post", _after_load),
