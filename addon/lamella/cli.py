@@ -19,20 +19,32 @@ def _fail(message: str) -> SystemExit:
     return SystemExit(2)
 
 
+def _is_file(p: Path) -> bool:
+    try:
+        return p.is_file()
+    except (OSError, ValueError):  # not a path at all (too long, a NUL)
+        return False
+
+
 def _load_stack(arg: str):
     from .core import Stack, StackError, suite
 
     p = Path(arg)
     try:
-        if p.exists():
-            return Stack.from_json(p.read_text())
-        if (suite.STACK_DIR / f"{arg}.json").exists():
+        if _is_file(p):
+            try:
+                text = p.read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError) as e:
+                raise _fail(f"{p}: cannot read it ({e})") from None
+            return Stack.from_json(text)
+        if _is_file(suite.STACK_DIR / f"{arg}.json"):
             return suite.load(arg)
-        if (suite.EXAMPLE_DIR / f"{arg}.json").exists():
+        if _is_file(suite.EXAMPLE_DIR / f"{arg}.json"):
             return suite.example(arg)
     except StackError as e:
         raise _fail(f"{p}: {e}") from None
-    raise _fail(f"no stack file, suite case or example named {arg!r}")
+    shown = arg if len(arg) <= 80 else arg[:77] + "..."
+    raise _fail(f"no stack file, suite case or example named {shown!r}")
 
 
 def cmd_lobes(a) -> int:

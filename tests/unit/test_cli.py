@@ -3,6 +3,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from lamella.cli import main
 
 
@@ -58,3 +60,19 @@ def test_trapping_bench_writes_its_table(tmp_path):
     md = trapping.run(tmp_path, spp=2048)
     rows = [line for line in md.read_text().splitlines() if line.startswith("| ") and "°" in line]
     assert len(rows) == len(trapping.VARIANTS) * len(trapping.ANGLES)
+
+
+@pytest.mark.parametrize("content, message", [
+    ('{"layers": ' + "[" * 3000 + "]" * 3000 + ', "base": {"type": "conductor"}}', "nested too deeply"),
+    (b"\xff\xfe not text", "cannot read it"),
+    ('{"layers": [{"ior": 1e300}], "base": {"type": "conductor"}}', "coat 0, field 'ior'"),
+])
+def test_malformed_stack_files_exit_with_a_message_not_a_traceback(tmp_path, content, message):
+    p = tmp_path / "bad.json"
+    p.write_bytes(content if isinstance(content, bytes) else content.encode())
+    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", str(p), "--wi", "0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and message in r.stderr and "Traceback" not in r.stderr, r.stderr[-2000:]
+    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", "x" * 5000, "--wi", "0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]

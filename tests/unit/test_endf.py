@@ -169,8 +169,8 @@ def test_refusals_say_what_and_where(stack, field):
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(a1=st.sampled_from([0.0, 1e-7, 1e-3, 0.5, 1.0]) | st.floats(0.0, 1.0),
        a2=st.sampled_from([0.0, 1e-7, 1e-3, 0.5, 1.0]) | st.floats(0.0, 1.0),
-       ior=st.sampled_from([1.0, 1.0 + 1e-7, 0.3, 1.5, 5.0]) | st.floats(0.05, 6.0),
-       base_ior=st.sampled_from([1.0, 0.5, 1.5, 4.0]) | st.floats(0.05, 6.0),
+       ior=st.sampled_from([1.0, 1.0 + 1e-7, 0.25, 0.3, 1.5, 4.0]) | st.floats(0.25, 4.0),  # the schema limits
+       base_ior=st.sampled_from([1.0, 0.5, 1.5, 4.0]) | st.floats(0.25, 4.0),
        dielectric=st.booleans(), sigma=st.sampled_from([0.0, 1e-6, 1.0, 1e3]))
 def test_every_output_is_finite_and_passive(dtype, a1, a2, ior, base_ior, dielectric, sigma):
     base = ({"type": "dielectric", "ior": base_ior, "roughness": a2} if dielectric

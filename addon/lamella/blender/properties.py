@@ -52,8 +52,10 @@ def _limits(f) -> dict:
 
 
 def _description(f) -> str:
+    """The tooltip: the schema's description, unit and hard limits (what the parser accepts)."""
     unit = f" [{f.unit}]" if f.unit and f.type != ROUGHNESS else ""
-    return f"{f.description[:1].upper()}{f.description[1:]}{unit}"
+    limits = f". Accepted: {f.limits_text()}" if f.type != ROUGHNESS else ""
+    return f"{f.description[:1].upper()}{f.description[1:]}{unit}{limits}"
 
 
 def field_properties(f, update=_on_edit) -> dict:
