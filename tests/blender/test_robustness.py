@@ -126,3 +126,36 @@ def test_damaged_nodes_are_reported_and_repaired_at_the_next_render(addon, scene
     assert np.allclose(again, good, atol=2e-3), damage
     recompile.flush_groups()  # the node group, which waits until something renders it
     assert material_nodes.broken(m) is None
+
+
+# ---------------------------------------------------------------- fuzzing the properties
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_FIELDS = ["ior", "roughness", "rotation", "thickness", "g"]
+_values = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10 ** 30, 10 ** 30),
+                    st.sampled_from([0.0, 1.0, -1.0, 1e-45, 3.4e38, 1e300]), st.text(max_size=4), st.none())
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(writes=st.lists(st.tuples(st.integers(0, 3), st.sampled_from(_FIELDS), _values), min_size=1, max_size=4))
+def test_any_property_write_leaves_a_working_material(addon, writes):
+    """Writes of any value into a coat's properties: Blender refuses the wrong types itself, and
+    whatever it stores, the compile either shows it or says why in the status while the material
+    keeps the shader it had."""
+    m = addon.data.materials.get("fuzzed") or addon.data.materials.new("fuzzed")
+    api.apply_stack(m, suite.load("gold_coated"))
+    source = m.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    for layer, field, value in writes:
+        coats = m.lamella.coats
+        try:
+            setattr(coats[layer % len(coats)].coat, field, value)
+        except (TypeError, ValueError, OverflowError):  # bpy's own type checks
+            pass
+    recompile.flush()
+    assert m.lamella.status in ("OK", "ERROR")
+    if m.lamella.status == "ERROR":
+        assert m.lamella.status_message and "coat 0" in m.lamella.status_message
+        assert m.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == source
+    else:
+        assert material_nodes.broken(m, group_pending=m.name_full in recompile.stale_groups()) is None

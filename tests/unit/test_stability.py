@@ -152,3 +152,16 @@ def test_every_model_is_finite_and_passive_at_the_schema_limits(d, dtype):
 
         f = evaluate_staged(stage(d), wi, wo, np.float32)
         assert np.isfinite(f).all() and (f >= 0).all()
+
+
+# Found by `lamella stress`: seven coats of very different index, the view below the horizon. The
+# refraction Jacobians (1 / cos^2 of a cosine clamped at 1e-6) grew the covariance past 1e20, whose
+# square in the eigen-decomposition overflowed float32 (a NaN table coordinate, then an IndexError).
+BELOW_HORIZON = {"layers": [{"type": "coat", "ior": 1.0000001, "roughness": [0.0, 0.0], "rotation": -1000.0}, {"type": "coat", "ior": 2.9758800626591375, "roughness": [0.9999999, 0.7695039728851347], "rotation": -2.527476436662348}, {"type": "coat", "ior": 0.5, "roughness": [0.11318745243018791, 0.11318745243018791]}, {"type": "coat", "ior": 1.929732907709073, "roughness": [0.17941440537517916, 0.17941440537517916], "rotation": -3.0328910154964377}, {"type": "coat", "ior": 0.2992795337630739, "roughness": [0.0, 0.0], "rotation": 2.33360268779375}, {"type": "coat", "ior": 1.3776924035661693, "roughness": [0.001, 0.001], "rotation": -1.5707963267948966}, {"type": "coat", "ior": 4.0, "roughness": [0.9104873457770443, 0.9104873457770443], "rotation": 1.6080253771110815}], "base": {"type": "diffuse", "albedo": [1.0, 0.007015210002840777, 0.14225492141141483]}}
+BELOW_HORIZON_WI = [[-0.489607, -0.861611, -0.133831], [-0.993808, 0.109565, -0.018467], [0.257908, -0.632351, 0.73049], [-0.292214, 0.8317, 0.472109]]
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_spreads_stay_finite_for_views_below_the_horizon(model):
+    wi = np.array(BELOW_HORIZON_WI)
+    check_outputs(BELOW_HORIZON, model, np.float32, wi, np.abs(wi[::-1]))

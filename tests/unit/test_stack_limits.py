@@ -73,3 +73,41 @@ def test_numpy_scalars_and_arrays_from_a_pipeline_are_numbers():
     assert (c.ior, c.roughness, c.thickness, c.sigma_a) == (1.25, (0.25, 0.25), 2.0, (0.5, 0.25, 0.0))
     assert s.base.roughness == (0.5, 0.25) and s.base.k == (3.0, 3.0, 3.0)
     assert json.loads(s.to_json())["layers"][0]["ior"] == 1.25  # plain floats out: JSON serialisable
+
+
+# ---------------------------------------------------------------- fuzzing the parser
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_scalars = st.one_of(st.none(), st.booleans(), st.integers(-10 ** 500, 10 ** 500), st.floats(allow_nan=True),
+                     st.text(max_size=20), st.sampled_from([0.0, 1.0, 0.25, 4.0, 1e6, -1e-300, 3.5e38]))
+_json = st.recursive(_scalars, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(
+    st.text(max_size=10), inner, max_size=4), max_leaves=20)
+_keys = st.sampled_from(["type", "ior", "roughness", "rotation", "thickness", "sigma_a", "sigma_s", "g", "eta", "k",
+                         "albedo", "name", "layers", "base", "bogus"])
+_layer = st.dictionaries(_keys, st.one_of(_json, st.sampled_from(["coat", "conductor", "diffuse", "dielectric"])),
+                         max_size=6)
+_stack = st.one_of(_json, st.fixed_dictionaries({}, optional={"name": _json, "layers": st.lists(_layer, max_size=9) | _json,
+                                                              "base": _layer | _json}))
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(d=_stack)
+def test_any_json_value_is_a_stack_or_a_stack_error(d):
+    """Whatever a file or a pipeline hands the parser, it returns a Stack or raises StackError
+    with a short message (never another exception)."""
+    try:
+        s = Stack.from_dict(d)
+    except StackError as e:
+        assert e.layer and len(str(e)) < 400
+    else:
+        assert Stack.from_json(s.to_json()) == s
+
+
+@settings(max_examples=200, deadline=None)
+@given(text=st.text(max_size=200) | _stack.map(lambda d: json.dumps(d, default=str)))
+def test_any_text_is_a_stack_or_a_stack_error(text):
+    try:
+        Stack.from_json(text)
+    except StackError:
+        pass

@@ -222,12 +222,20 @@ def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
     return not (np.isfinite(f).all() and (f >= 0).all())
 
 
-def shrink(stack: dict, fails) -> dict:
+def shrink(stack: dict, fails, budget: int = 80) -> dict:
     """A smaller stack that still ``fails``: coats removed, then fields set to their defaults, one
-    at a time, kept while the failure stays."""
+    at a time, kept while the failure stays (at most ``budget`` trials: each may trace a new
+    structure)."""
     d = json.loads(json.dumps(stack))
+    trials = [0]
+    inner = fails
+
+    def fails(x):  # noqa: F811 - the caller's test, counted
+        trials[0] += 1
+        return trials[0] <= budget and inner(x)
+
     changed = True
-    while changed:
+    while changed and trials[0] < budget:
         changed = False
         for i in range(len(d["layers"])):
             trial = dict(d, layers=d["layers"][:i] + d["layers"][i + 1:])

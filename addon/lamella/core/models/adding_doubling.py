@@ -244,6 +244,8 @@ def _add_interface(ops, variant, mapping, index, sx, sy, n_above, R12, T12, j12,
     new_s_ri0 = (s_r21.scale(r21)
                  + (s_t12 + (s_t21 + s_ri0 + bounce).scale(j12)).scale(m_ri0)).divide_safe(ops, e_ri0)
     new_s_ti0 = s_ti0 + s_t21.scale(ji0) + (s_r12 + s_ri0).scale(ji0 * m_rr)
+    new_s_r0i, new_s_t0i, new_s_ri0, new_s_ti0, lobe_spread = (
+        x.bounded(ops) for x in (new_s_r0i, new_s_t0i, new_s_ri0, new_s_ti0, lobe_spread))
 
     lax, lay, lrot = lobe_spread.to_lobe(ops, mapping)
     return (e_R0i, e_T0i, e_Ri0, e_Ti0, new_s_r0i, new_s_t0i, new_s_ri0, new_s_ti0,

@@ -15,6 +15,14 @@ Each ``Spread`` class knows how to build an interface's spread from its roughnes
 """
 from __future__ import annotations
 
+# Past this variance every mapping's roughness is 1 to within 1e-6 (the variance of alpha = 1 is
+# about 1e5 under Belcour's mapping, 12 under Weier's), so a larger spread is the same lobe. The
+# adding equations scale spreads by refraction Jacobians that grow without bound toward grazing
+# (1 / cos^2 of a cosine clamped at 1e-6), so an unbounded spread overflowed float32 where it is
+# squared (the covariance's eigen-decomposition) below the horizon. ``bounded`` caps its size.
+VARIANCE_MAX = 1e6
+
+
 
 class ScalarVariance:
     __slots__ = ("v",)
@@ -41,6 +49,9 @@ class ScalarVariance:
 
     def mean(self):
         return self.v
+
+    def bounded(self, ops):
+        return ScalarVariance(ops.min(self.v, VARIANCE_MAX))
 
     @staticmethod
     def from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=1.0):
@@ -100,6 +111,9 @@ class AxisVariance:
     def mean(self):
         return 0.5 * (self.x + self.y)
 
+    def bounded(self, ops):
+        return AxisVariance(ops.min(self.x, VARIANCE_MAX), ops.min(self.y, VARIANCE_MAX))
+
     @staticmethod
     def shared_axes(ops, ax, ay, cos_r, sin_r):
         """A rotated interface seen along the shared axes: the projected roughness
@@ -148,6 +162,12 @@ class CovarianceVariance:
 
     def mean(self):
         return 0.5 * (self.xx + self.yy)
+
+    def bounded(self, ops):
+        """The covariance scaled down (its shape kept) so that its larger diagonal entry, which
+        bounds every entry of a positive semi-definite 2x2 matrix, is at most VARIANCE_MAX."""
+        k = VARIANCE_MAX / ops.max(ops.max(self.xx, self.yy), VARIANCE_MAX)
+        return self.scale(k)
 
     @staticmethod
     def from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=1.0):
