@@ -165,3 +165,15 @@ BELOW_HORIZON_WI = [[-0.489607, -0.861611, -0.133831], [-0.993808, 0.109565, -0.
 def test_spreads_stay_finite_for_views_below_the_horizon(model):
     wi = np.array(BELOW_HORIZON_WI)
     check_outputs(BELOW_HORIZON, model, np.float32, wi, np.abs(wi[::-1]))
+
+
+# Found by `lamella stress`: eight coats, five of them scattering. In float32 the unnormalised
+# asymmetries (energy x g) of the six-flux model grew past 1e27 through the inverses of nearly
+# lossless layers, and g = G / E overflowed; G is now held within [-E, E].
+SCATTERING_EIGHT = {"layers": [{"type": "coat", "ior": 2.4018173846058275, "roughness": [0.03508996669880171, 0.03508996669880171], "rotation": -1.5477122569013302, "thickness": 0.00041691258740550463, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [1e-07, 1589.9621166891743, 0.14291832418116568], "g": 0.36503540356425823}, {"type": "coat", "ior": 1.392270027172725, "roughness": [0.09493965812587646, 0.10643608542121175], "rotation": 1.96596364441697, "thickness": 35.92224748693381, "sigma_a": [0.0012038324442536633, 0.00029188576649661713, 0.47696647994927355], "sigma_s": [0.3517371513714976, 1.0, 1.0397190971343815], "g": -0.999}, {"type": "coat", "ior": 2.769034867545411, "roughness": [1.0, 1.0], "rotation": 1.2286759748395415, "thickness": 0.0006304557379983346, "sigma_a": [1e-07, 0.17333759610347993, 8253.587158975324], "sigma_s": [0.00025902203385128064, 0.0, 10000.0], "g": 0.584375765934676}, {"type": "coat", "ior": 2.1364906472982934, "roughness": [0.001, 1e-07], "rotation": 1.8043722270402807, "thickness": 0.3437718753862128, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [2926.0666467637443, 0.5083407312540487, 1.1615527852826137], "g": 0.5255528329738259}, {"type": "coat", "ior": 0.9999999, "roughness": [0.8458288259268107, 0.03671943150141299], "rotation": -0.9106749648259869, "thickness": 0.0, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [0.0, 0.0, 0.0], "g": 0.0}, {"type": "coat", "ior": 1.730967001469973, "roughness": [0.0012986220158758277, 0.0012986220158758277], "rotation": 1000.0, "thickness": 0.0, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [0.0, 0.0, 0.0], "g": 0.0}, {"type": "coat", "ior": 2.235602782368752, "roughness": [0.9322063902567596, 0.9322063902567596], "rotation": -0.9874835717014543, "thickness": 1e-07, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [1.4942780024145605, 0.2829461021112009, 808.9805380369929], "g": 0.8324447049885788}, {"type": "coat", "ior": 2.4322617942117226, "roughness": [0.3953571276878479, 0.3953571276878479], "rotation": 0.6608170167783713, "thickness": 0.0, "sigma_a": [0.0, 0.0, 0.0], "sigma_s": [0.0, 0.0, 0.0], "g": 0.0}], "base": {"type": "dielectric", "ior": 1.0400340903303336, "roughness": [0.001, 0.172383951365364], "rotation": -3.0232454480676743}}
+SCATTERING_EIGHT_WI = [[0.344438, 0.938809, 0.0], [-0.003147, 0.025287, 0.999675], [0.848252, 0.490827, -0.198888], [0.900378, 0.128328, 0.415755]]
+
+
+def test_six_flux_asymmetries_stay_within_the_energies_in_float32():
+    wi = np.array(SCATTERING_EIGHT_WI)
+    check_outputs(SCATTERING_EIGHT, "tm6", np.float32, wi, np.abs(wi[::-1]))

@@ -141,6 +141,21 @@ def _stack(ops, s: Component, c: Component, n: int) -> Component:
     )
 
 
+def _within_energy(ops, g: Component, e: Component) -> Component:
+    """``g`` (energy x asymmetry) with every entry held within [-E, E] of the same entry of ``e``:
+    an asymmetry lies in [-1, 1]. Exact arithmetic keeps it there; in float32 the inverses
+    (I - X)^-1 of nearly lossless stacks amplify rounding, and without this bound the unnormalised
+    asymmetries of eight scattering coats grew past 1e27 (and g = G / E to infinity)."""
+    def bound(gm: dict, em: dict) -> dict:
+        out = {}
+        for key, x in gm.items():
+            lim = em.get(key)
+            out[key] = x if lim is None else x.zip(lim, lambda a, b: ops.clamp(a, 0.0 - b, b))
+        return out
+
+    return Component(bound(g.rt, e.rt), bound(g.td, e.td), bound(g.rb, e.rb), bound(g.tu, e.tu))
+
+
 def _empty(n: int) -> Component:
     one = RGB.splat(1.0)
     return Component({}, _diag(one, n), {}, _diag(one, n))
@@ -180,7 +195,8 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
 
     def add(ce: Component, cg: Component):
         nonlocal E, G
-        E_new, G_new = _stack(ops, E, ce, n), _stack(ops, G, cg, n)
+        E_new = _stack(ops, E, ce, n)
+        G_new = _within_energy(ops, _stack(ops, G, cg, n), E_new)
         for fam in range(n):
             key = (fam, P)
             if key not in E_new.rt or E_new.rt[key] is E.rt.get(key):
