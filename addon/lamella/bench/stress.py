@@ -158,9 +158,9 @@ def directions(rng, n: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- checking
-def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, float]:
     """Whether each of ``stacks`` (one structure) fails under ``model`` in ``dtype``: a bool per
-    stack (any of its directions). ``wi``, ``wo``: (len(stacks), D, 3). Raises UnsupportedStack
+    stack (any of its directions), and the largest albedo above 1 among the finite ones. ``wi``, ``wo``: (len(stacks), D, 3). Raises UnsupportedStack
     where the model cannot run the structure."""
     traced = trace_closures(stacks[0], model)
     t = traced.tracer
@@ -184,7 +184,6 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
         return env[id(x)] if id(x) in env else np.full(n * d, x, dtype=dtype)
 
     bad = np.zeros(n * d, dtype=bool)
-    check_batch.excess = 0.0
     total = np.zeros((n * d, 3), dtype=np.float64)
     wi_o = tuple(values[k] for k in ("wi_x", "wi_y", "wi_z"))
     wo_o = tuple(wo[..., k].reshape(-1).astype(dtype) for k in range(3))
@@ -202,13 +201,12 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
         bad |= on & (~np.isfinite(f) | (f < 0))
     bad |= ~(total <= 1.0 + ALBEDO_SLACK[dtype]).all(-1)
     finite = np.isfinite(total).all(-1)
-    check_batch.excess = float(np.max(total[finite] - 1.0, initial=0.0))
-    return bad.reshape(n, d).any(1)
+    return bad.reshape(n, d).any(1), float(np.max(total[finite] - 1.0, initial=0.0))
 
 
 def check_stack(stack, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> bool:
     """Whether one stack fails (``check_batch`` of one)."""
-    return bool(check_batch([Stack.coerce(stack)], model, dtype, wi[None], wo[None])[0])
+    return bool(check_batch([Stack.coerce(stack)], model, dtype, wi[None], wo[None])[0][0])
 
 
 def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
@@ -229,18 +227,17 @@ def shrink(stack: dict, fails, budget: int = 80) -> dict:
     structure)."""
     d = json.loads(json.dumps(stack))
     trials = [0]
-    inner = fails
 
-    def fails(x):  # noqa: F811 - the caller's test, counted
+    def still_fails(x):  # the caller's test, within the budget
         trials[0] += 1
-        return trials[0] <= budget and inner(x)
+        return trials[0] <= budget and fails(x)
 
     changed = True
     while changed and trials[0] < budget:
         changed = False
         for i in range(len(d["layers"])):
             trial = dict(d, layers=d["layers"][:i] + d["layers"][i + 1:])
-            if fails(trial):
+            if still_fails(trial):
                 d, changed = trial, True
                 break
         for layer in [*d["layers"], d["base"]]:
@@ -249,7 +246,7 @@ def shrink(stack: dict, fails, budget: int = 80) -> dict:
                 saved = dict(layer)
                 layer.clear()
                 layer.update(trial_layer)
-                if fails(d):
+                if still_fails(d):
                     changed = True
                 else:
                     layer.clear()
@@ -285,16 +282,17 @@ def random_stacks(n_stacks: int, per_structure: int, seed: int = 0, float64_ever
                     if not part:
                         continue
                     try:
-                        bad = check_batch(part, model, dtype, wi[sub], wo[sub])
+                        bad, excess = check_batch(part, model, dtype, wi[sub], wo[sub])
                     except UnsupportedStack:
                         break
                     except Exception as e:  # noqa: BLE001 - a model that raises on a valid stack fails it
                         bad = np.array([_fails(s.to_dict(), model, dtype, a, b)
                                         for s, a, b in zip(part, wi[sub], wo[sub])])
+                        excess = 0.0
                         errors.append(f"{model} {name}: {type(e).__name__}: {str(e)[:200]}")
                     stats[model][name][0] += len(part)
                     stats[model][name][1] += int(bad.sum())
-                    stats[model][name][2] = max(stats[model][name][2], check_batch.excess)
+                    stats[model][name][2] = max(stats[model][name][2], excess)
                     for k in np.flatnonzero(bad)[:max(0, MAX_SHRUNK - len(failures))]:
                         s, a, b = part[int(k)], wi[sub][int(k)], wo[sub][int(k)]
                         small = shrink(s.to_dict(), lambda d, a=a, b=b, model=model, dtype=dtype: _fails(d, model, dtype, a, b))
