@@ -4,18 +4,21 @@
 // of an axis with n nodes sits at c * (n - 1). 3D tables are atlases of their last axis's slices
 // stacked vertically (rows = first axis, columns = second axis), as lamella.core.luts writes them;
 // lamella_tex4 reads four slices at once from a table's RGBA-packed atlas (luts.PACKED).
+// lamella LUT layout 2: every file holds its atlas above its mirror image, and an atlas row is read
+// at half its t, which is the same texel whether a renderer counts t from the file's first row
+// (OpenImageIO, Blender up to 5.0) or from its last (Cycles from Blender 5.1).
 
 float lamella_tex(string file, float c0, float c1, int n0, int n1, float row0, int rows)
 {
     float s = (clamp(c1, 0.0, 1.0) * (n1 - 1) + 0.5) / n1;
-    float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / rows;
+    float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / (2 * rows);
     return texture(file, s, t, "wrap", "clamp", "interp", "linear", "width", 0.0);
 }
 
 color lamella_tex4(string file, float c0, float c1, int n0, int n1, float row0, int rows, output float a)
 {
     float s = (clamp(c1, 0.0, 1.0) * (n1 - 1) + 0.5) / n1;
-    float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / rows;
+    float t = (row0 + clamp(c0, 0.0, 1.0) * (n0 - 1) + 0.5) / (2 * rows);
     return texture(file, s, t, "wrap", "clamp", "interp", "linear", "width", 0.0, "alpha", a);
 }
 

@@ -86,7 +86,8 @@ def test_packed_atlas_holds_the_same_values_as_the_table():
         with OpenEXR.File(str(luts.DATA_DIR / fname)) as f:
             px = np.asarray(f.channels()["RGBA"].pixels)
         n0, n1, n2 = t.shape
-        assert px.shape == (n2 // 4 * n0, n1, 4)
+        assert px.shape == (2 * (n2 // 4) * n0, n1, 4)  # the atlas above its mirror image
+        px = luts.from_file(px, fname)
         for k in range(n2):
             g, c = divmod(k, 4)
             np.testing.assert_array_equal(px[g * n0:(g + 1) * n0, :, c], t[:, :, k])
@@ -97,3 +98,23 @@ def test_numpy_archive_holds_the_exr_tables(name):
     """The numpy backend reads tables.npz (inside Blender there is no OpenEXR package); the OSL
     shaders read the EXR files: both must hold the same float32 values."""
     np.testing.assert_array_equal(luts.table(name), luts.read_exr_table(name))
+
+
+def test_every_file_holds_its_atlas_above_its_mirror_image():
+    """OSL's texture() counts t from a file's first row (OpenImageIO, Blender up to 5.0) or from its
+    last (Cycles from Blender 5.1): each file is symmetric top to bottom, so both read the same
+    value (``luts.to_file``), and the header the shaders inline reads it at half its t."""
+    import OpenEXR
+
+    from lamella.core.backends.osl import LUT_HEADER, OSL_DIR
+
+    files = {s.file: s.channel for s in luts.SPECS.values()} | {f: "RGBA" for f in luts.PACKED.values()}
+    for fname, channel in files.items():
+        with OpenEXR.File(str(luts.DATA_DIR / fname)) as f:
+            px = np.asarray(f.channels()[channel].pixels)
+            assert f.header()["lamella_layout"] == str(luts.LAYOUT)
+        np.testing.assert_array_equal(px, px[::-1])
+    header = (OSL_DIR / LUT_HEADER).read_text()
+    assert luts.LAYOUT_MARK in header and header.count("/ (2 * rows)") == 2
+    with pytest.raises(ValueError, match="layout"):
+        luts.from_file(np.arange(6.0).reshape(3, 2))

@@ -127,7 +127,8 @@ def test_a_value_edit_keeps_every_nested_group_and_a_structure_edit_keeps_the_re
 
 def test_table_reads_hit_texel_centres():
     """A table look-up at a node of the table reads that texel exactly (the lowering's texture
-    coordinates and the flip of Blender's bottom-up rows)."""
+    coordinates, and v = t / 2 in a file that holds the atlas above its mirror image, Blender's
+    rows bottom-up)."""
     from lamella.core import luts
 
     n0, n1 = luts.SPECS["ggx_albedo"].shape
@@ -137,7 +138,7 @@ def test_table_reads_hit_texel_centres():
     for i, j in [(0, 0), (3, 7), (n0 - 1, n1 - 1), (10, 0)]:
         s = s0 + j / (n1 - 1) * (s1 - s0)
         t = t0 + i / (n0 - 1) * (t1 - t0)
-        got = node_graph.bilinear(img, np.array([s]), np.array([1.0 - t]))[0, 0]
+        got = node_graph.bilinear(img, np.array([s]), np.array([0.5 * t]))[0, 0]
         assert math.isclose(got, table[i, j], rel_tol=1e-6, abs_tol=1e-7)
 
 

@@ -245,7 +245,7 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
     staged = getattr(shader, "staged", None)  # the OSL shader's staging of this stack, when it has one
     plan = emit_plan(stack, model, live=live, budget=budget, image=table_image_name(mat),
                      staged_ir=staged if staged is not None and staged.stack == stack else None)
-    key = plan.staged.structure_key() if plan.staged is not None else ""
+    key = _layout_prefix() + (plan.staged.structure_key() if plan.staged is not None else "")
     rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
     if rebuilt:
         if tree is None:
@@ -297,6 +297,21 @@ def source_digest(source: str) -> str:
 SOURCE_KEY = "lamella_source"  # custom property of a shader text: the digest of the source Lamella wrote
 
 
+def reads_old_tables(source: str) -> bool:
+    """Whether OSL ``source`` reads the look-up tables as a layout before ``luts.LAYOUT`` stored
+    them (a shader saved by an older Lamella: it would read the wrong rows now)."""
+    from ..core import luts
+
+    return "lamella_tex(" in source and luts.LAYOUT_MARK not in source
+
+
+def _layout_prefix() -> str:
+    """What a node group's structure key starts with: the look-up tables' layout its reads assume."""
+    from ..core import luts
+
+    return f"luts{luts.LAYOUT}:"
+
+
 def broken(mat, group_pending: bool = False) -> str | None:
     """What is wrong with the nodes of compiled material ``mat`` (a node deleted, a link cut, the
     shader text edited, the node group or its table gone), or None if they render what Lamella
@@ -314,6 +329,8 @@ def broken(mat, group_pending: bool = False) -> str | None:
         return f"the node '{SCRIPT}' has no shader"
     if text.get(SOURCE_KEY) and source_digest(text.as_string()) != text[SOURCE_KEY]:
         return f"the shader text '{text.name}' was edited"
+    if reads_old_tables(text.as_string()):
+        return f"the shader text '{text.name}' reads the look-up tables of an older Lamella"
     if output is None:
         return f"the node '{OUTPUT}' was deleted"
     surface = output.inputs["Surface"]
@@ -327,6 +344,8 @@ def broken(mat, group_pending: bool = False) -> str | None:
     eevee = nt.nodes.get(EEVEE_OUTPUT)
     if eevee is None or not eevee.inputs["Surface"].is_linked or eevee.inputs["Surface"].links[0].from_node != group:
         return f"the node '{EEVEE_OUTPUT}' no longer shows the node group"
+    if not str(group.node_tree.get(STRUCTURE_KEY, "")).startswith(_layout_prefix()):
+        return f"the node group '{group.node_tree.name}' was built for the look-up tables of an older Lamella"
     image = group.node_tree.get(TABLE_KEY)
     if image and bpy.data.images.get(image) is None:
         return f"the node group's table image '{image}' was deleted"

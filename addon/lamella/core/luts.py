@@ -25,6 +25,11 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
 Axes are normalised to [0, 1] for look-ups; the node positions are given by the axis maps below.
 Tables are written as ZIP-compressed float32 EXR in ``lamella/data/luts`` (3D tables as an atlas of
 slices of the last axis stacked vertically) by ``lamella luts``: the files the OSL shaders read.
+Each file holds its atlas twice: as it is in the top half and mirrored top to bottom in the bottom
+half (``to_file``). OSL's ``texture()`` puts t = 0 at a file's first row in OpenImageIO and in
+Blender up to 5.0; from Blender 5.1 Cycles reads OSL textures through its own image cache, with
+t = 0 at the last row (Blender's image convention). A read at t / 2 of the atlas's own coordinate
+t lands on the same value under either convention (``LAYOUT``; ``osl/lamella_luts.h``).
 The same float32 values go into ``tables.npz`` beside them, which is what the numpy backend loads:
 inside Blender only numpy is certain to be there (no OpenEXR package), and an ``.npz`` needs nothing
 else.
@@ -125,7 +130,28 @@ def _read_table(path: Path, channel: str, shape) -> np.ndarray:
         raise FileNotFoundError(f"look-up table {path} is missing: run `lamella luts` to generate it")
     with OpenEXR.File(str(path)) as f:
         px = np.asarray(f.channels()[channel].pixels, dtype=np.float32)
-    return _from_atlas(px, shape)
+    return _from_atlas(from_file(px, path), shape)
+
+
+LAYOUT = 2  # the files' layout: 2 = each atlas above its mirror image (1: the atlas alone)
+LAYOUT_MARK = f"lamella LUT layout {LAYOUT}"  # in osl/lamella_luts.h: shaders that read this layout
+
+
+def to_file(atlas: np.ndarray) -> np.ndarray:
+    """The rows an atlas is stored as: the atlas, then the atlas mirrored top to bottom. Row i of
+    the atlas (from the top) sits at t = (i + 0.5) / (2 rows) from the top and at the same t from
+    the bottom, so a texture read gives it whichever end a renderer counts t from."""
+    return np.ascontiguousarray(np.concatenate([atlas, atlas[::-1]], axis=0))
+
+
+def from_file(px: np.ndarray, path="") -> np.ndarray:
+    """The atlas stored in ``px`` (``to_file``'s rows); raises ValueError if they are not."""
+    rows = px.shape[0] // 2
+    top, bottom = px[:rows], px[rows:]
+    if px.shape[0] % 2 or not np.array_equal(top, bottom[::-1]):
+        raise ValueError(f"look-up table {path} is not in layout {LAYOUT} (its atlas above its mirror image): "
+                         "run `lamella luts` to write it again")
+    return np.ascontiguousarray(top)
 
 
 def _to_atlas(a: np.ndarray) -> np.ndarray:
@@ -144,7 +170,8 @@ def _from_atlas(px: np.ndarray, shape) -> np.ndarray:
 
 def packed_atlas(a: np.ndarray) -> dict[str, np.ndarray]:
     """RGBA atlas of a 3D table (n0, n1, n2), n2 a multiple of 4: group g of slices
-    4g..4g+3 occupies rows g*n0 .. (g+1)*n0 - 1, slice 4g+c in channel c."""
+    4g..4g+3 occupies rows g*n0 .. (g+1)*n0 - 1, slice 4g+c in channel c (the atlas; a file
+    holds ``to_file`` of it)."""
     n0, n1, n2 = a.shape
     if n2 % 4:
         raise ValueError(f"cannot pack {n2} slices by four")
@@ -159,14 +186,18 @@ def write_packed(out_dir: Path = DATA_DIR, tables: dict[str, np.ndarray] | None 
     for name, fname in PACKED.items():
         arr = tables[name] if tables and name in tables else table(name)
         header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-                  "lamella_shape": ",".join(map(str, arr.shape)), "lamella_packing": "rgba slices"}
-        with OpenEXR.File(header, packed_atlas(arr)) as f:
+                  "lamella_shape": ",".join(map(str, arr.shape)), "lamella_packing": "rgba slices",
+                  "lamella_layout": str(LAYOUT)}
+        channels = {ch: to_file(px) for ch, px in packed_atlas(arr).items()}
+        with OpenEXR.File(header, channels) as f:
             f.write(str(out_dir / fname))
         written.append(out_dir / fname)
     return written
 
 
-def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
+def write_exr(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
+    """The EXR files the OSL shaders read (every table of ``SPECS`` in ``tables``, and the packed
+    copies), in layout ``LAYOUT``."""
     import OpenEXR
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -174,20 +205,24 @@ def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> lis
     for name, arr in tables.items():
         spec = SPECS[name]
         assert arr.shape == spec.shape, (name, arr.shape, spec.shape)
-        files.setdefault(spec.file, {})[spec.channel] = _to_atlas(arr.astype(np.float32))
+        files.setdefault(spec.file, {})[spec.channel] = to_file(_to_atlas(arr.astype(np.float32)))
     written = []
     for fname, channels in files.items():
         shape = next(SPECS[n].shape for n in SPECS if SPECS[n].file == fname)
         header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
-                  "lamella_shape": ",".join(map(str, shape))}
+                  "lamella_shape": ",".join(map(str, shape)), "lamella_layout": str(LAYOUT)}
         with OpenEXR.File(header, channels) as f:
             f.write(str(out_dir / fname))
         written.append(out_dir / fname)
+    return written + write_packed(out_dir, {k: v.astype(np.float32) for k, v in tables.items()})
+
+
+def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
+    """Every table: the EXR files (``write_exr``) and ``tables.npz``."""
+    written = write_exr(tables, out_dir)
     np.savez_compressed(out_dir / NPZ_FILE, **{k: v.astype(np.float32) for k, v in tables.items()})
-    written.append(out_dir / NPZ_FILE)
     _cache.clear()
-    written += write_packed(out_dir, {k: v.astype(np.float32) for k, v in tables.items()})
-    return written
+    return written + [out_dir / NPZ_FILE]
 
 
 # ---------------------------------------------------------------- numerical integration

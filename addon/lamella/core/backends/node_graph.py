@@ -208,9 +208,10 @@ class _Lowering:
         return self.math("MULTIPLY_ADD", clamped, hi - lo, lo)
 
     def _read(self, file, s, t, channels=("X",)):
-        """Texture read at (s, t) in OSL's convention (t = 0 at the file's first row). Blender
-        stores images bottom row first, so its v is 1 - t."""
-        v = self.math("SUBTRACT", 1.0, t)
+        """Texture read at (s, t) of a look-up table's atlas, t = 0 at the atlas's first row. The
+        file holds the atlas above its mirror image (``luts.to_file``) and Blender's v counts from
+        the last row, which holds the atlas's first: v = t / 2."""
+        v = self.math("MULTIPLY", t, 0.5)
         xyz = self.add("ShaderNodeCombineXYZ", {}, {"X": s, "Y": v, "Z": 0.0}, ("Vector",))
         tex = self.add("ShaderNodeTexImage", {"image": file, "interpolation": "Linear", "extension": "EXTEND"},
                        {"Vector": Out(xyz, "Vector")}, ("Color", "Alpha"))
@@ -553,14 +554,14 @@ def table_pixels(file: str, dtype=np.float32) -> np.ndarray:
     """The image as Blender holds it: rows bottom first, RGBA (a one-channel table in R, G, B)."""
     for name, spec in luts.SPECS.items():
         if spec.file == file:
-            atlas = luts._to_atlas(luts.table(name))
+            atlas = luts.to_file(luts._to_atlas(luts.table(name)))
             rgba = np.stack([atlas, atlas, atlas, np.ones_like(atlas)], axis=-1)
             return rgba[::-1].astype(dtype)
     for name, packed in luts.PACKED.items():
         if packed == file:
             n0, n1, n2 = luts.SPECS[name].shape
             a = luts.table(name)
-            rgba = np.stack([luts._to_atlas(a[:, :, c::4]) for c in range(4)], axis=-1)
+            rgba = np.stack([luts.to_file(luts._to_atlas(a[:, :, c::4])) for c in range(4)], axis=-1)
             return rgba[::-1].astype(dtype)
     raise KeyError(file)
 

@@ -167,6 +167,10 @@ def _tables_section(files: list[str], lut_default: str) -> list[str]:
             f"path of the `{TABLES_DIR}/` folder of this bundle.",
             "",
         ]
+    out += ["Each file holds its atlas twice, mirrored top to bottom in its lower half, and the shader reads "
+            "an atlas row at half its `t`: the same texel whether the renderer counts `t` from the file's "
+            "first row (OpenImageIO's texture system, Blender up to 5.0) or from its last (Cycles from "
+            "Blender 5.1).", ""]
     out += ["| file | table | shape | layout | used for |", "|---|---|---|---|---|"]
     for f in files:
         name, shape, layout = by_file.get(f, (f, (), ""))

@@ -1,0 +1,154 @@
+"""OSL shaders read the look-up tables in this Blender as numpy does.
+
+A shader whose live part reads Lamella's look-up tables does so through OSL's ``texture()`` on the
+EXR files (``osl/lamella_luts.h``). Blender up to 5.0 read those through OpenImageIO, t = 0 at a
+file's first row; from 5.1 Cycles reads them through its own image cache, t = 0 at the last row.
+The files hold each atlas above its mirror image so that both give the same values
+(``luts.to_file``). A probe shader reads every table at the coordinates of the shading point and
+writes the value and its coordinates into the pixel (emission, one sample per pixel, a pixel filter
+narrower than a pixel); numpy's multilinear read of the same table at those coordinates must agree
+to the texture filter's float32 arithmetic (``TOLERANCE``: measured at most 2.1e-5 in Blender 5.0
+and 5.2). Before the layout changed, Blender 5.2 read 0.962 where numpy reads 0.901."""
+import numpy as np
+import pytest
+
+pytest.importorskip("bpy")
+
+from lamella.core import luts  # noqa: E402
+from lamella.core.backends.numpy_ops import _multilinear  # noqa: E402
+from lamella.core.backends.osl import LUT_HEADER, OSL_DIR  # noqa: E402
+
+RES = 24
+TOLERANCE = 1e-4  # absolute, every table's values are within [-1, 1]
+
+# (table, OSL expression of the value; c0, c1 come from the shading point, c2 from both)
+READS = {
+    "ggx_albedo": 'lamella_lut2(concat(dir, "/ggx_albedo.exr"), c0, c1, {n0}, {n1})',
+    "ggx_refract_albedo": 'lamella_lut2(concat(dir, "/ggx_refract_albedo.exr"), c0, c1, {n0}, {n1})',
+    "tir": 'lamella_lut3(concat(dir, "/tir.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "fresnel_hat_delta": 'lamella_lut3(concat(dir, "/fresnel_hat_delta.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+}
+
+
+def _probe_source(expr: str) -> str:
+    header = (OSL_DIR / LUT_HEADER).read_text()
+    return header + f"""
+shader probe(string dir = "", output closure color BSDF = 0)
+{{
+    float c0 = clamp(0.5 + 0.5 * P[0], 0.0, 1.0);
+    float c1 = clamp(0.5 + 0.5 * P[2], 0.0, 1.0);
+    float c2 = clamp(0.5 + 0.45 * sin(9.0 * c0 + 5.0 * c1), 0.0, 1.0);
+    BSDF = color({expr}, c0, c1) * emission();
+}}
+"""
+
+
+def _packed_source() -> str:
+    """Slice k of fresnel_hat_delta through its RGBA-packed file (``lamella_tex4``), k from c1."""
+    n0, n1, n2 = luts.SPECS["fresnel_hat_delta"].shape
+    f = luts.PACKED["fresnel_hat_delta"]
+    header = (OSL_DIR / LUT_HEADER).read_text()
+    return header + f"""
+shader probe(string dir = "", output closure color BSDF = 0)
+{{
+    float c0 = clamp(0.5 + 0.5 * P[0], 0.0, 1.0);
+    float c1 = clamp(0.5 + 0.5 * P[2], 0.0, 1.0);
+    int k = int(clamp(floor(c1 * {n2 // 4}), 0, {n2 // 4 - 1}));
+    float a = 0.0;
+    color rgb = lamella_tex4(concat(dir, "/{f}"), c0, c0, {n0}, {n1}, k * {n0}.0, {n0 * n2 // 4}, a);
+    BSDF = color(rgb[1] + a, c0, c1) * emission();
+}}
+"""
+
+
+def _render_probe(source: str):
+    import bpy
+
+    from lamella.blender.osl_compile import assign_script
+    from lamella.blender.render import build_scene, render_scene, sphere_material
+
+    sc, sphere = build_scene("sphere-env", RES, 1)
+    sc.cycles.filter_width = 0.01
+    sc.cycles.shading_system = True
+    sc.render.film_transparent = True  # the sphere's pixels alone are opaque
+    mat, nt, out = sphere_material(sphere, "lut probe")
+    node = nt.nodes.new("ShaderNodeScript")
+    assign_script(node, bpy.data.texts.new("lut_probe"), source, "lut_probe", {"dir": str(luts.DATA_DIR)})
+    nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    px, _ = render_scene(sc)
+    on = px[..., 3] > 0.999
+    return px[on, :3].astype(np.float64)
+
+
+def _c2(c0, c1):
+    return np.clip(0.5 + 0.45 * np.sin(9.0 * c0 + 5.0 * c1), 0.0, 1.0)
+
+
+@pytest.mark.parametrize("name", sorted(READS))
+def test_osl_texture_reads_equal_numpy(addon, name):
+    shape = luts.SPECS[name].shape
+    expr = READS[name].format(**{f"n{k}": n for k, n in enumerate(shape)})
+    got = _render_probe(_probe_source(expr))
+    assert got.shape[0] > 100
+    c0, c1 = got[:, 1], got[:, 2]
+    coords = [c0, c1] if len(shape) == 2 else [c0, c1, _c2(c0, c1)]
+    want = _multilinear(luts.table(name).astype(np.float64), coords, np.float64)
+    err = np.abs(got[:, 0] - want)
+    assert err.max() < TOLERANCE, (name, err.max(), got[np.argmax(err)], want[np.argmax(err)])
+
+
+def test_osl_reads_of_the_packed_table_equal_numpy(addon):
+    """``lamella_tex4`` reads four slices at once from the RGBA file; channels G and A here."""
+    n0, n1, n2 = luts.SPECS["fresnel_hat_delta"].shape
+    got = _render_probe(_packed_source())
+    c0, c1 = got[:, 1], got[:, 2]
+    k = np.clip(np.floor(c1 * (n2 // 4)), 0, n2 // 4 - 1).astype(int)
+    t = luts.table("fresnel_hat_delta").astype(np.float64)
+    want = np.array([_multilinear(t[:, :, 4 * kk + 1], [a, a], np.float64) +
+                     _multilinear(t[:, :, 4 * kk + 3], [a, a], np.float64) for a, kk in zip(c0, k)])
+    err = np.abs(got[:, 0] - want)
+    assert err.max() < TOLERANCE, (err.max(), got[np.argmax(err)], want[np.argmax(err)])
+
+
+def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon, scene):
+    """A .blend saved by a Lamella whose shader and node group read the tables' earlier layout
+    (the atlas alone, read at t) would read wrong rows now: both are reported and rebuilt at the
+    next render, as other damage is."""
+    from lamella.blender import material_nodes, recompile
+    from lamella.core import suite
+    from lamella.blender import api
+
+    from .addon_helpers import new_material
+
+    sc, sphere = scene
+    m = new_material(sphere, "saved before the layout")
+    api.apply_stack(m, suite.load("gold_coated"))
+    nt = m.node_tree
+    script = nt.nodes[material_nodes.SCRIPT]
+    value = nt.nodes.new("ShaderNodeValue")
+    value.outputs[0].default_value = 0.3
+    for node in (script, nt.nodes[material_nodes.GROUP]):
+        nt.links.new(value.outputs[0], node.inputs["coat0_roughness"])
+    recompile.compile_material(m)
+    assert m.lamella.live_params == "coat0_roughness" and material_nodes.broken(m) is None
+    text = script.script
+    assert luts.LAYOUT_MARK in text.as_string()
+    # what an older Lamella saved: no layout mark in the shader, a group key without the layout
+    old = text.as_string().replace(luts.LAYOUT_MARK, "lamella LUT layout 1")
+    text.clear()
+    text.write(old)
+    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(old)
+    assert "older Lamella" in material_nodes.broken(m)
+    tree = nt.nodes[material_nodes.GROUP].node_tree
+    tree[material_nodes.STRUCTURE_KEY] = tree[material_nodes.STRUCTURE_KEY].split(":", 1)[1]
+    text.clear()
+    text.write(old.replace("lamella LUT layout 1", luts.LAYOUT_MARK))
+    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(text.as_string())
+    assert "older Lamella" in material_nodes.broken(m)  # the group now
+    text.clear()
+    text.write(old)
+    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(old)
+    recompile._before_render(sc)
+    recompile.flush_groups()
+    assert material_nodes.broken(m) is None
+    assert luts.LAYOUT_MARK in nt.nodes[material_nodes.SCRIPT].script.as_string()
