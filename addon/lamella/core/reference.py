@@ -1,4 +1,4 @@
-"""Stochastic ground truth of the exact layered BSDF (DESIGN.md, "Contract: the Python API").
+"""Stochastic ground truth of the exact layered BSDF (docs: the Python API contract).
 
 Plain numpy, never traced: the yardstick every model is measured against. A random walk of energy
 packets through planar layers of single-scattering GGX interfaces (Walter et al. 2007 reflection
@@ -9,7 +9,14 @@ and pbrt-v4's ``LayeredBxDF``.
 
 Conventions
 -----------
-* Masking-shadowing: G2 = 1 / (1 + Lambda(i) + Lambda(o)) for reflection and transmission (the
+* Rough interfaces (``interfaces``): "single" scatters once on the microsurface, pbrt-v4's
+  convention, and loses the energy a real microsurface scatters again; "multiple" is the random
+  walk on the microsurface of Heitz, Hanika, d'Eon and Dachsbacher 2016 (``microsurface.walk``:
+  conductors with a Fresnel factor per bounce, dielectrics reflecting and refracting at every
+  bounce, anisotropic), energy conserving. Its single-scattering part is the one below for
+  reflection; for refraction its masking is the Beta form of uniform heights
+  (``microsurface.g2_transmission``).
+* Masking-shadowing (single): G2 = 1 / (1 + Lambda(i) + Lambda(o)) for reflection and transmission (the
   height-correlated form pbrt-v4 uses), Lambda anisotropic (Heitz 2014 Eq. 86); microfacet
   normals sampled from the visible-normal distribution (Heitz 2018, JCGT 7(4)). This is the
   convention of ``models/ggx.py`` and of the look-up tables.
@@ -42,72 +49,14 @@ import math
 
 import numpy as np
 
+from . import microsurface
+from .microsurface import _fresnel_conductor, _fresnel_dielectric, _ggx_d, sample_vndf, smith_lambda
 from .stack import Stack
 
 ALPHA_MIN = 1e-4  # a rough interface with one zero axis is evaluated with this floor on that axis
 MAX_EVENTS = 256
+INTERFACES = ("single", "multiple")  # rough interfaces: pbrt-v4's single scattering, or Heitz et al. 2016's walk
 CHUNK = 1 << 19
-
-
-# ---------------------------------------------------------------- microfacet primitives (numpy)
-def _fresnel_dielectric(c, eta):
-    c = np.clip(c, 0.0, 1.0)
-    eta2 = eta * eta
-    num = eta2 - 1.0 + c * c
-    ct = np.sqrt(np.maximum(num, 0.0) / eta2)
-    rs = (c - eta * ct) / np.maximum(c + eta * ct, 1e-300)
-    rp = (eta * c - ct) / np.maximum(eta * c + ct, 1e-300)
-    return np.where(num < 0.0, 1.0, np.minimum(0.5 * (rs * rs + rp * rp), 1.0))
-
-
-def _fresnel_conductor(c, eta, k):
-    c = np.clip(c, 0.0, 1.0)
-    c2 = c * c
-    s2 = 1.0 - c2
-    t0 = eta * eta - k * k - s2
-    a2pb2 = np.sqrt(t0 * t0 + 4.0 * eta * eta * k * k)
-    a = np.sqrt(np.maximum(0.5 * (a2pb2 + t0), 0.0))
-    t1 = a2pb2 + c2
-    t2 = 2.0 * a * c
-    rs = (t1 - t2) / np.maximum(t1 + t2, 1e-300)
-    t3 = c2 * a2pb2 + s2 * s2
-    t4 = t2 * s2
-    rp = rs * (t3 - t4) / np.maximum(t3 + t4, 1e-300)
-    return np.clip(0.5 * (rp + rs), 0.0, 1.0)
-
-
-def smith_lambda(w, ax, ay):
-    """Smith Lambda of a direction in the interface frame (z may be negative: |z| is used)."""
-    z2 = np.maximum(w[..., 2] ** 2, 1e-300)
-    t = (ax * ax * w[..., 0] ** 2 + ay * ay * w[..., 1] ** 2) / z2
-    return 0.5 * (np.sqrt(1.0 + t) - 1.0)
-
-
-def _ggx_d(h, ax, ay):
-    t = h[..., 0] ** 2 / (ax * ax) + h[..., 1] ** 2 / (ay * ay) + h[..., 2] ** 2
-    # t = 0 only for a degenerate (zero) half vector, e.g. wo = -wi: no microfacet maps one to the other
-    return np.where(t > 0, 1.0 / (math.pi * ax * ay * np.maximum(t, 1e-150) ** 2), 0.0)
-
-
-def sample_vndf(i, ax, ay, u1, u2):
-    """Heitz 2018 Listing 1: a visible normal for direction i (i.z > 0) of anisotropic GGX."""
-    vh = np.stack([ax * i[:, 0], ay * i[:, 1], i[:, 2]], -1)
-    vh /= np.linalg.norm(vh, axis=1, keepdims=True)
-    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
-    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-300)), 0.0)
-    t1 = np.where((lensq > 0)[:, None], np.stack([-vh[:, 1] * inv, vh[:, 0] * inv, 0 * inv], -1),
-                  np.array([1.0, 0.0, 0.0]))
-    t2 = np.cross(vh, t1)
-    r = np.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    p1 = r * np.cos(phi)
-    p2 = r * np.sin(phi)
-    s = 0.5 * (1.0 + vh[:, 2])
-    p2 = (1.0 - s) * np.sqrt(np.maximum(1.0 - p1 * p1, 0.0)) + s * p2
-    p3 = np.sqrt(np.maximum(1.0 - p1 * p1 - p2 * p2, 0.0))
-    nh = p1[:, None] * t1 + p2[:, None] * t2 + p3[:, None] * vh
-    h = np.stack([ax * nh[:, 0], ay * nh[:, 1], np.maximum(nh[:, 2], 1e-12)], -1)
-    return h / np.linalg.norm(h, axis=1, keepdims=True)
 
 
 def _hg(cos_t, g):
@@ -137,8 +86,11 @@ class _Layers:
     """Media 0..N (0 = vacuum above, m = interior of coat m-1) and interfaces 0..N (interface j
     between media j and j+1; interface N is the base)."""
 
-    def __init__(self, stack: Stack):
+    def __init__(self, stack: Stack, interfaces: str = "single"):
+        if interfaces not in INTERFACES:
+            raise ValueError(f"interfaces must be one of {', '.join(INTERFACES)}, got {interfaces!r}")
         self.stack = stack
+        self.multiple = interfaces == "multiple"
         coats = stack.coats
         self.N = len(coats)
         self.n = np.array([1.0] + [c.ior for c in coats])
@@ -411,10 +363,19 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
             o_f = np.where(reflect[:, None], i_f * np.array([-1.0, -1.0, 1.0]), o_t)
     else:
         # NEE toward the exit, then sample
-        if exit_ is not None:
-            _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee)
+        if exit_ is not None and not L.multiple:
+            _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng)
         ax, ay = L.alpha[j]
         il = L.to_local(j, i_f)
+        if L.multiple:  # the random walk on the microsurface decides where the packet leaves
+            if exit_ is not None:
+                _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng)
+            ol, weight, left = microsurface.walk(il, ax, ay, rng, eta=eta_rel, conductor=conductor)
+            o_f = L.to_world(j, np.where(left[:, None], ol, np.array([0.0, 0.0, 1.0])))
+            beta[sel] *= weight
+            alive[sel[~left]] = False
+            _leave_interface(L, j, sel, o_f, flip, w, pos, z, pending)
+            return
         h = L.to_world(j, sample_vndf(il, ax, ay, rng.random(sel.size), rng.random(sel.size)))
         ci = np.sum(i_f * h, 1)
         o_r = 2.0 * ci[:, None] * h - i_f
@@ -436,19 +397,25 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
         beta[sel] *= weight_rgb * np.where(wrong_side, 0.0, g)[:, None]
         dead = wrong_side
         alive[sel[dead]] = False
+    _leave_interface(L, j, sel, o_f, flip, w, pos, z, pending)
+
+
+def _leave_interface(L, j, sel, o_f, flip, w, pos, z, pending):
+    """Packets ``sel`` leave interface j along ``o_f`` (in the frame they arrived in from +z)."""
     o = _flip(o_f, flip)
     o /= np.linalg.norm(o, axis=1, keepdims=True)
     w[sel] = o
     # new medium: above interface j is medium j, below is j+1 (N+1 = substrate)
     new_pos = np.where(o[:, 2] > 0, j, j + 1)
     pos[sel] = new_pos
-    z[sel] = np.where(o[:, 2] > 0, L.thick[np.minimum(new_pos, N)], 0.0)
+    z[sel] = np.where(o[:, 2] > 0, L.thick[np.minimum(new_pos, L.N)], 0.0)
     pending[sel] = False
 
 
-def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee):
+def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng):
     """Connect a rough-interface event to the exit: reflection / transmission into the medium on
-    either side, each followed by that side's delta-only series."""
+    either side, each followed by that side's delta-only series. With multiple-scattering
+    interfaces the density toward the exit is the microsurface walk's own (stochastic) estimate."""
     N = L.N
     p = pair[sel]
     for up in (True, False):
@@ -457,7 +424,12 @@ def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pai
             continue
         d = exit_.direction(m, up)[p]
         d_f = _flip(d, flip)
-        q = _rough_q(L, j, i_f, d_f, eta_rel if eta_rel is not None else 1.0, conductor)
+        if L.multiple:
+            ax, ay = L.alpha[j]
+            q = microsurface.walk(L.to_local(j, i_f), ax, ay, rng, eta=eta_rel, conductor=conductor,
+                                  target=L.to_local(j, d_f))
+        else:
+            q = _rough_q(L, j, i_f, d_f, eta_rel if eta_rel is not None else 1.0, conductor)
         tail = exit_.after_interface(m, up)[p]
         # going up, only exits through the top are delta-only (coming back down would cross this
         # rough interface again); going down, only exits through the base
@@ -549,11 +521,13 @@ def _dirs(w):
     return w[None, :] if w.ndim == 1 else w
 
 
-def eval_brdf_cos(stack, wi, wo, spp: int, seed: int = 0):
+def eval_brdf_cos(stack, wi, wo, spp: int, seed: int = 0, interfaces: str = "single"):
     """Stochastic f(wi, wo) |wo.z| for each row of ``wo`` ((N, 3); ``wi`` (3,) or (N, 3)):
     returns (mean, stderr), each (N, 3). Lower-hemisphere ``wo`` is transmission into the
-    dielectric base's substrate (density per solid angle there)."""
-    L = _Layers(Stack.coerce(stack))
+    dielectric base's substrate (density per solid angle there). ``interfaces``: "single" (rough
+    interfaces scatter once, pbrt-v4's convention) or "multiple" (Heitz et al. 2016's walk on the
+    microsurface, energy conserving: ``microsurface``)."""
+    L = _Layers(Stack.coerce(stack), interfaces)
     wo = _dirs(wo)
     wi = np.broadcast_to(_dirs(wi), wo.shape)
     P = wo.shape[0]
@@ -574,14 +548,16 @@ def eval_brdf_cos(stack, wi, wo, spp: int, seed: int = 0):
     return mean, np.sqrt(var / max(spp - 1, 1))
 
 
-def albedo(stack, wi, spp: int, seed: int = 0, side: str = "reflected", exclude_delta: bool = False):
+def albedo(stack, wi, spp: int, seed: int = 0, side: str = "reflected", exclude_delta: bool = False,
+           interfaces: str = "single"):
     """Stochastic directional albedo: energy leaving the top (``side="reflected"``) or through
     the dielectric base (``"transmitted"``), by counting escaping packets. (mean, stderr), (N, 3).
     ``exclude_delta=True`` counts only packets that met at least one non-delta event: the part
-    of the albedo that ``eval_brdf_cos`` integrates to (delta lobes have no density)."""
+    of the albedo that ``eval_brdf_cos`` integrates to (delta lobes have no density).
+    ``interfaces``: as for ``eval_brdf_cos``."""
     if side not in ("reflected", "transmitted"):
         raise ValueError(f"side must be 'reflected' or 'transmitted', got {side!r}")
-    L = _Layers(Stack.coerce(stack))
+    L = _Layers(Stack.coerce(stack), interfaces)
     wi = _dirs(wi)
     rng = np.random.default_rng(seed)
     means, errs = [], []
