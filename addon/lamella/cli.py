@@ -99,9 +99,10 @@ def cmd_references(a) -> int:
     from .bench import accuracy
 
     cases = a.cases.split(",") if a.cases else None
-    command = "lamella references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp}"
-    accuracy.compute_references(cases, spp=a.spp, out_dir=Path(a.out) if a.out else accuracy.REFERENCE_DIR,
-                                command=command)
+    command = ("lamella references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp}"
+               + f" --interfaces {a.interfaces}")
+    accuracy.compute_references(cases, spp=a.spp, out_dir=Path(a.out) if a.out else None, command=command,
+                                interfaces=a.interfaces)
     return 0
 
 
@@ -343,6 +344,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("references", help="compute and store the BRDF references of the accuracy suite")
     p.add_argument("--cases", help="comma-separated suite cases (default: all)")
     p.add_argument("--spp", type=int, default=2048)
+    p.add_argument("--interfaces", choices=("single", "multiple"), default="single",
+                   help="rough interfaces scatter once (pbrt-v4) or on their microsurface until they leave "
+                        "(Heitz et al. 2016; stored in tests/references/brdf_multiple)")
     p.add_argument("--out")
     p.set_defaults(fn=cmd_references)
 

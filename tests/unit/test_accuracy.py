@@ -40,6 +40,19 @@ def test_every_case_has_a_stored_reference():
         assert "lamella references" in ref["meta"]["command"]
 
 
+def test_every_case_has_a_stored_multiple_scattering_reference():
+    """The energy-conserving yardstick: every suite case stored, made with multiple-scattering
+    interfaces, of the stack as it is now, and equal to the single-scattering one where the stack
+    has no rough interface (the two differ only there)."""
+    from lamella.bench import REFERENCE_DIR_MULTIPLE
+
+    assert sorted(p.stem for p in REFERENCE_DIR_MULTIPLE.glob("*.npz")) == sorted(suite.names())
+    for name in suite.names():
+        ref = load_reference(name, REFERENCE_DIR_MULTIPLE)
+        assert ref["meta"]["stack"] == suite.load(name).to_dict()
+        assert ref["meta"]["interfaces"] == "multiple" and "--interfaces multiple" in ref["meta"]["command"]
+
+
 def test_pending_references_match_their_stacks():
     """The BRDF references of cases awaiting image references are of the stacks as they are now."""
     from lamella.bench.accuracy import PENDING_DIR

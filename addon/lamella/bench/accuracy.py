@@ -3,6 +3,9 @@ on the suite (``lamella.core.suite``), BRDF space.
 
 References are computed once (``compute_references``) and stored compressed, one ``.npz`` per
 suite case, with the command that made them; the table is then rebuilt from them in seconds.
+Two yardsticks are kept: rough interfaces scattering once (``REFERENCE_DIR``, pbrt-v4's
+convention) and scattering as often as the microsurface makes them (``REFERENCE_DIR_MULTIPLE``,
+Heitz et al. 2016: energy conserving, ``reference_dir``).
 """
 from __future__ import annotations
 
@@ -16,13 +19,20 @@ import numpy as np
 from ..core import api, reference, suite
 from ..core.metrics import albedo_error, relative_l1
 from ..core.models import UnsupportedStack
-from . import BENCH_DIR, REFERENCE_DIR
+from . import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
 
 MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "endf", "auto")
 
 
+def reference_dir(interfaces: str) -> Path:
+    """Where the references of rough interfaces scattering ``interfaces`` ("single", "multiple") live."""
+    return REFERENCE_DIR_MULTIPLE if interfaces == "multiple" else REFERENCE_DIR
+
+
 def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, seed: int = 1,
-                       out_dir: Path = REFERENCE_DIR, command: str = "", progress=print) -> list[Path]:
+                       out_dir: Path | None = None, command: str = "", progress=print,
+                       interfaces: str = "single") -> list[Path]:
+    out_dir = reference_dir(interfaces) if out_dir is None else out_dir
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for name in cases or suite.names():
@@ -32,18 +42,20 @@ def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, s
         for i, deg in enumerate(suite.WI_DEGREES):
             wi = suite.incident(deg)
             wo, weight = suite.wo_grid(wi)
-            mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i)
-            amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 1)
+            mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i, interfaces=interfaces)
+            amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 1, interfaces=interfaces)
             data.update({f"wo_{i}": wo, f"weight_{i}": weight, f"mean_{i}": mean, f"stderr_{i}": err,
                          f"albedo_{i}": np.asarray(amean).reshape(3), f"albedo_stderr_{i}": np.asarray(aerr).reshape(3)})
             if stack.base.type == "dielectric":  # light crossing the base: the transmitted side
                 wo, weight = suite.wo_grid_transmitted(wi)
-                mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i + 2)
-                amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 3, side="transmitted")
+                mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i + 2, interfaces=interfaces)
+                amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 3, side="transmitted",
+                                              interfaces=interfaces)
                 data.update({f"wo_t_{i}": wo, f"weight_t_{i}": weight, f"mean_t_{i}": mean, f"stderr_t_{i}": err,
                              f"albedo_t_{i}": np.asarray(amean).reshape(3),
                              f"albedo_t_stderr_{i}": np.asarray(aerr).reshape(3)})
         meta = {"case": name, "stack": stack.to_dict(), "spp": spp, "albedo_spp": albedo_spp, "seed": seed,
+                "interfaces": interfaces,
                 "command": command or f"lamella references --cases {name} --spp {spp}",
                 "seconds": round(time.time() - t0, 1), "machine": platform.machine()}
         data["meta"] = np.array(json.dumps(meta))
@@ -95,35 +107,105 @@ PENDING_DIR = REFERENCE_DIR.parent / "brdf_pending"
 
 
 def run(ref_dir: Path = REFERENCE_DIR, out_dir: Path = BENCH_DIR, models=MODELS,
-        pending_dir: Path = PENDING_DIR) -> tuple[Path, Path]:
-    """Every suite case, then the cases whose BRDF reference is stored in ``pending_dir`` but
-    which are not in the suite yet (waiting for their image references), marked ``pending``."""
+        pending_dir: Path = PENDING_DIR, multiple_dir: Path = REFERENCE_DIR_MULTIPLE) -> tuple[Path, Path]:
+    """Every suite case against both yardsticks (``rows``: single-scattering interfaces;
+    ``rows_multiple``: multiple-scattering interfaces, where stored), then the cases whose BRDF
+    reference is stored in ``pending_dir`` but which are not in the suite yet (waiting for their
+    image references), marked ``pending``."""
     rows = []
     for name in suite.names():
         if not (ref_dir / f"{name}.npz").exists():
             raise FileNotFoundError(f"no stored reference for {name}: run `lamella references --cases {name}`")
         rows.extend(evaluate_case(name, load_reference(name, ref_dir), models))
+    # the energy-conserving yardstick, for the cases whose reference is stored
+    rows_multiple = []
+    for name in suite.names():
+        if (multiple_dir / f"{name}.npz").exists():
+            rows_multiple.extend(evaluate_case(name, load_reference(name, multiple_dir), models))
     for path in sorted(pending_dir.glob("*.npz")) if pending_dir.exists() else []:
         if path.stem not in suite.names():
             rows.extend({**r, "pending": True} for r in evaluate_case(path.stem, load_reference(path.stem, pending_dir),
                                                                       models))
     out_dir.mkdir(parents=True, exist_ok=True)
     jpath = out_dir / "accuracy.json"
-    jpath.write_text(json.dumps({"models": list(models), "wi_degrees": list(suite.WI_DEGREES), "rows": rows},
-                                indent=1) + "\n")
+    jpath.write_text(json.dumps({"models": list(models), "wi_degrees": list(suite.WI_DEGREES), "rows": rows,
+                                 "rows_multiple": rows_multiple}, indent=1) + "\n")
     mpath = out_dir / "accuracy.md"
-    mpath.write_text(format_markdown(rows, models))
+    mpath.write_text(format_markdown(rows, models, rows_multiple))
     return mpath, jpath
 
 
-def format_markdown(rows: list[dict], models) -> str:
+def median_table(rows: list[dict], models, wis) -> list[str]:
+    """Per model and incidence, the suite's median relative L1 / median albedo error (reflected side)."""
+    lines = ["| model | " + " | ".join(f"{w:g}°" for w in wis) + " | cases |", "|---|" + "---|" * (len(wis) + 1)]
+    for m in models:
+        cells = []
+        for w in wis:
+            rs = [r for r in rows if r["model"] == m and r["wi"] == w and "rel_l1" in r and not r.get("pending")]
+            cells.append(f"{np.median([r['rel_l1'] for r in rs]):.3f} / {np.median([r['albedo_err'] for r in rs]):.3f}"
+                         if rs else "unsupported")
+        n = len({r["case"] for r in rows if r["model"] == m and "rel_l1" in r and not r.get("pending")})
+        lines.append(f"| {m} | " + " | ".join(cells) + f" | {n} |")
+    return lines
+
+
+def _case_tables(rows: list[dict], models, wis, desc) -> list[str]:
+    from ..core.models import choose_auto
+
+    lines = []
+    for name in dict.fromkeys(r["case"] for r in rows):
+        lines += [f"### {name}", "", desc.get(name, "") + f" `auto` runs {choose_auto(suite.load(name))}.", ""]
+        lines.append("| wi | " + " | ".join(models) + " | noise |")
+        lines.append("|---|" + "---|" * (len(models) + 1))
+        for w in wis:
+            cells = {r["model"]: r for r in rows if r["case"] == name and r["wi"] == w}
+            l1s = {m: cells[m]["rel_l1"] for m in models if m != "auto" and "rel_l1" in cells.get(m, {})}
+            best = min(l1s, key=l1s.get) if l1s else None
+            out = []
+            for m in models:
+                r = cells.get(m, {})
+                if "rel_l1" not in r:
+                    out.append("unsupported")
+                    continue
+                s = f"{r['rel_l1']:.3f} / {r['albedo_err']:.3f}"
+                out.append(f"**{s}**" if m == best else s)
+            noise = next((r["ref_noise"] for r in cells.values() if "ref_noise" in r), float("nan"))
+            lines.append(f"| {w:g}° | " + " | ".join(out) + f" | {noise:.3f} |")
+            if any("rel_l1_t" in r for r in cells.values()):
+                out = [f"{cells[m]['rel_l1_t']:.3f} / {cells[m]['albedo_err_t']:.3f}" if "rel_l1_t" in cells.get(m, {})
+                       else "unsupported" for m in models]
+                lines.append(f"| {w:g}° T | " + " | ".join(out) + " | |")
+        lines.append("")
+    return lines
+
+
+def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None = None) -> str:
     desc = {**suite.pending_descriptions(), **suite.descriptions()}
     wis = sorted({r["wi"] for r in rows})
+    rows_multiple = rows_multiple or []
     lines = [
         "# BRDF accuracy against the stochastic reference",
         "",
-        "Generated by `lamella bench accuracy` from the stored references in `tests/references/brdf/`",
-        "(made by `lamella references`). Each cell: **relative L1** of f·cos over a half-vector",
+        "Two yardsticks (`lamella.core.reference`, `interfaces=`): rough interfaces that scatter as often as",
+        "their microsurface makes them (Heitz, Hanika, d'Eon and Dachsbacher 2016; energy conserving, references",
+        "in `tests/references/brdf_multiple/`, `lamella references --interfaces multiple`), and rough interfaces",
+        "that scatter once (pbrt-v4's convention, which loses the energy a microsurface scatters again; references",
+        "in `tests/references/brdf/`). The models conserve energy (T = 1 - R), so the first is the one to",
+        "measure them by; the second is kept for continuity.",
+        "",
+        "## Summary: the suite's median per incidence (relative L1 / albedo error, reflected side)",
+        "",
+    ]
+    if rows_multiple:
+        n = len({r["case"] for r in rows_multiple})
+        lines += [f"Against **multiple-scattering** interfaces ({n} of {len({r['case'] for r in rows})} cases stored):", ""]
+        lines += median_table(rows_multiple, models, wis) + [""]
+    lines += ["Against **single-scattering** interfaces:", ""] + median_table(rows, models, wis) + [""]
+    lines += [
+        "## Per case",
+        "",
+        "Generated by `lamella bench accuracy` from the stored references (made by `lamella references`).",
+        "Each cell: **relative L1** of f·cos over a half-vector",
         "hemisphere grid (`lamella.core.suite.wo_grid`) / **relative albedo error**, RGB averaged,",
         "at incidence zenith angles " + ", ".join(f"{w:g}°" for w in wis) + ".",
         "`noise` is the reference's own stderr on the L1 metric (a floor below which differences are",
@@ -144,6 +226,9 @@ def format_markdown(rows: list[dict], models) -> str:
     ]
     from ..core.models import choose_auto
 
+    if rows_multiple:
+        lines += ["## Against multiple-scattering interfaces", ""] + _case_tables(rows_multiple, models, wis, desc)
+        lines += ["## Against single-scattering interfaces", ""]
     pending_heading = False
     for name in dict.fromkeys(r["case"] for r in rows):
         if not pending_heading and any(r.get("pending") for r in rows if r["case"] == name):
