@@ -128,6 +128,11 @@ def cmd_bench(a) -> int:
         md, js = accuracy.run()
         print(md.read_text())
         print(f"wrote {md} and {js}")
+    elif a.what == "energy":
+        from .bench import energy
+
+        md = energy.run(BENCH_DIR)
+        print(md.read_text())
     elif a.what == "luts":
         from .bench import luts_error
 
@@ -351,7 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "eevee-anisotropy",
+    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
                                        "trapping", "pareto"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
