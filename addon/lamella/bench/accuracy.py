@@ -224,41 +224,17 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
         "best or tied on these cases |",
         "",
     ]
-    from ..core.models import choose_auto
-
     if rows_multiple:
         lines += ["## Against multiple-scattering interfaces", ""] + _case_tables(rows_multiple, models, wis, desc)
         lines += ["## Against single-scattering interfaces", ""]
-    pending_heading = False
-    for name in dict.fromkeys(r["case"] for r in rows):
-        if not pending_heading and any(r.get("pending") for r in rows if r["case"] == name):
-            pending_heading = True
-            lines += ["# Media, diffuse and glass bases, ENDF-sized coats (awaiting image references)", "",
-                      "BRDF references stored in `tests/references/brdf_pending/` (`lamella references --cases ...`);",
-                      "these cases join the suite with their image references. A `T` row is the transmitted side of",
-                      "a dielectric base (f·|cos| below the surface / transmitted albedo).", ""]
-        lines += [f"## {name}", "", desc.get(name, "") + f" `auto` runs {choose_auto(suite.load(name))}.", ""]
-        lines.append("| wi | " + " | ".join(models) + " | noise |")
-        lines.append("|---|" + "---|" * (len(models) + 1))
-        for w in wis:
-            cells = {r["model"]: r for r in rows if r["case"] == name and r["wi"] == w}
-            l1s = {m: cells[m]["rel_l1"] for m in models if m != "auto" and "rel_l1" in cells.get(m, {})}
-            best = min(l1s, key=l1s.get) if l1s else None
-            out = []
-            for m in models:
-                r = cells.get(m, {})
-                if "rel_l1" not in r:
-                    out.append("unsupported")
-                    continue
-                s = f"{r['rel_l1']:.3f} / {r['albedo_err']:.3f}"
-                out.append(f"**{s}**" if m == best else s)
-            noise = next((r["ref_noise"] for r in cells.values() if "ref_noise" in r), float("nan"))
-            lines.append(f"| {w:g}° | " + " | ".join(out) + f" | {noise:.3f} |")
-            if any("rel_l1_t" in r for r in cells.values()):
-                out = [f"{cells[m]['rel_l1_t']:.3f} / {cells[m]['albedo_err_t']:.3f}" if "rel_l1_t" in cells.get(m, {})
-                       else "unsupported" for m in models]
-                lines.append(f"| {w:g}° T | " + " | ".join(out) + " | |")
-        lines.append("")
+    lines += _case_tables([r for r in rows if not r.get("pending")], models, wis, desc)
+    pending = [r for r in rows if r.get("pending")]
+    if pending:
+        lines += ["# Media, diffuse and glass bases, ENDF-sized coats (awaiting image references)", "",
+                  "BRDF references stored in `tests/references/brdf_pending/` (`lamella references --cases ...`);",
+                  "these cases join the suite with their image references. A `T` row is the transmitted side of",
+                  "a dielectric base (f·|cos| below the surface / transmitted albedo).", ""]
+        lines += _case_tables(pending, models, wis, desc)
     for title, group in (("all suite cases", [r for r in rows if not r.get("pending")]),
                          ("the cases awaiting image references", [r for r in rows if r.get("pending")])):
         if not group:
