@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .microsurface import sample_vndf, smith_lambda
+
 DATA_DIR = Path(__file__).resolve().parent.parent / "data" / "luts"
 
 TIR_ETA_MIN = 0.2  # escape-cone range of the TIR table (inside index up to 5)
@@ -242,8 +244,6 @@ def _vndf_reflect(mu: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndar
     of F(c) is E[F(c) * weight], weight = G2(wi, wo) / G1(wi) for wo above the horizon
     (G2 = 1 / (1 + Lambda(wi) + Lambda(wo)), the convention of models/ggx.py). ``mu`` is a
     scalar array of shape (1, 1), ``alpha`` (A, 1), ``u1``/``u2`` (S,); results are (A, S)."""
-    from .microsurface import sample_vndf, smith_lambda
-
     a = np.broadcast_to(alpha, (alpha.shape[0], u1.size)).ravel()
     m = float(np.asarray(mu).ravel()[0])
     wi = np.array([math.sqrt(max(1.0 - m * m, 0.0)), 0.0, m])
@@ -317,8 +317,6 @@ def generate_refract_albedo(n_samples: int = 160, eta: float = REFRACT_ETA) -> n
     sampling weight E[(1 + Lambda_i) / (1 + Lambda_i + Lambda_o)] over visible normals, the
     refracted direction wo = refract(wi, h, 1 / eta) kept when it lies below the closure's normal
     (Cycles' ``bsdf_microfacet_sample``; Walter et al. 2007 Eq. 40 for the refraction)."""
-    from .microsurface import sample_vndf, smith_lambda
-
     mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
     alphas = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)
     u1, u2, wt = _stratified(n_samples)

@@ -363,13 +363,11 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
             o_f = np.where(reflect[:, None], i_f * np.array([-1.0, -1.0, 1.0]), o_t)
     else:
         # NEE toward the exit, then sample
-        if exit_ is not None and not L.multiple:
+        if exit_ is not None:
             _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng)
         ax, ay = L.alpha[j]
         il = L.to_local(j, i_f)
         if L.multiple:  # the random walk on the microsurface decides where the packet leaves
-            if exit_ is not None:
-                _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng)
             ol, weight, left = microsurface.walk(il, ax, ay, rng, eta=eta_rel, conductor=conductor)
             o_f = L.to_world(j, np.where(left[:, None], ol, np.array([0.0, 0.0, 1.0])))
             beta[sel] *= weight
