@@ -171,6 +171,10 @@ def cmd_bench(a) -> int:
         from .bench import trapping
 
         print(trapping.run(BENCH_DIR).read_text())
+    elif a.what == "lobe-floor":
+        from .bench import lobe_floor
+
+        print(lobe_floor.run(BENCH_DIR).read_text())
     elif a.what == "shells":
         from .bench import image_references
 
@@ -358,7 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks")
     p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
-                                       "trapping", "pareto"])
+                                       "trapping", "lobe-floor", "pareto"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .core import api, reference
-from .core.models import UnsupportedStack
+from .core.models import UnsupportedStack, choose_auto
 from .core.stack import Stack
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -41,10 +41,18 @@ COLORS = {"belcour2018": "tab:blue", "weier2020": "tab:orange", "yamaguchi2019":
           "tm6": "tab:red", "endf": "tab:brown"}
 
 
-def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2019", "tm6", "endf"),
-               thetas=(0.0, 30.0, 60.0, 75.0), spp: int = 512, seed: int = 7, title: str | None = None) -> Path:
-    """Slices of every model that supports the stack against the reference (log scale); a third
-    row of transmitted slices for a dielectric base. Models that refuse the stack are left out."""
+REFERENCE_STYLES = {"multiple": dict(color="k", lw=1.0, ls="-"), "single": dict(color="0.45", lw=0.9, ls=":")}
+REFERENCE_LABELS = {"multiple": "reference (interfaces scatter until light leaves)",
+                    "single": "reference (interfaces scatter once)"}
+
+
+def plot_stack(stack, out: Path, models=("auto", "belcour2018", "weier2020", "yamaguchi2019", "tm6", "endf"),
+               thetas=(0.0, 30.0, 60.0, 75.0), spp: int = 512, seed: int = 7, title: str | None = None,
+               interfaces=("multiple", "single")) -> Path:
+    """Slices of every model that supports the stack against the reference (log scale), for each
+    setting of its rough interfaces in ``interfaces`` (``reference.INTERFACES``; the first gets the
+    ±2σ band); a third row of transmitted slices for a dielectric base. ``auto`` is drawn as a
+    solid line and named after the model it runs; models that refuse the stack are left out."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,18 +66,25 @@ def plot_stack(stack, out: Path, models=("belcour2018", "weier2020", "yamaguchi2
         for row, plane in enumerate(planes):
             ax = axes[row, col]
             s, wo = slice_directions(th, plane)
-            mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 17 * col + row)
-            y, e = mean @ LUMA, np.sqrt((err ** 2) @ (LUMA ** 2))
-            ax.fill_between(s, np.maximum(y - 2 * e, 1e-6), y + 2 * e, color="0.8", label="reference ±2σ")
-            ax.plot(s, y, color="k", lw=1.0, label="reference")
+            top = 1e-3
+            for k, itf in enumerate(interfaces):
+                mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 17 * col + row,
+                                                    interfaces=itf)
+                y, e = mean @ LUMA, np.sqrt((err ** 2) @ (LUMA ** 2))
+                if k == 0:
+                    ax.fill_between(s, np.maximum(y - 2 * e, 1e-6), y + 2 * e, color="0.85", label="±2σ")
+                ax.plot(s, y, label=REFERENCE_LABELS[itf], **REFERENCE_STYLES[itf])
+                top = max(top, float(y.max()))
             for m in models:
                 try:
                     f = api.evaluate(stack, wi, wo, m) @ LUMA
                 except UnsupportedStack:
                     continue
-                ax.plot(s, f, color=COLORS.get(m), lw=1.2, ls="--", label=m)
+                if m == "auto":
+                    ax.plot(s, f, color="tab:cyan", lw=2.0, alpha=0.8, label=f"auto ({choose_auto(stack)})")
+                else:
+                    ax.plot(s, f, color=COLORS.get(m), lw=1.2, ls="--", label=m)
             ax.set_yscale("log")
-            top = max(float(y.max()), 1e-3)
             ax.set_ylim(top * 1e-4, top * 3)
             ax.set_title(f"θi = {th:g}°, {PLANE_TITLES[plane]}", fontsize=9)
             ax.set_xlabel(PLANE_AXES[plane])

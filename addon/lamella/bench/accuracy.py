@@ -73,6 +73,14 @@ def load_reference(name: str, ref_dir: Path = REFERENCE_DIR) -> dict:
     return d
 
 
+def reference_noise(ref: dict, i: int) -> float:
+    """The reference's own noise on the relative L1 metric at its i-th incidence: the sum of its
+    standard errors relative to the signal, RGB averaged."""
+    w = ref[f"weight_{i}"]
+    return float(np.mean((ref[f"stderr_{i}"] * w[:, None]).sum(0)
+                         / np.maximum((ref[f"mean_{i}"] * w[:, None]).sum(0), 1e-30)))
+
+
 def evaluate_case(name: str, ref: dict, models=MODELS) -> list[dict]:
     """Rows of (model, wi, relative L1, albedo error, noise floor) for one suite case."""
     stack = suite.load(name)
@@ -81,9 +89,7 @@ def evaluate_case(name: str, ref: dict, models=MODELS) -> list[dict]:
         wi = suite.incident(float(deg))
         wo, weight, f_ref = ref[f"wo_{i}"], ref[f"weight_{i}"], ref[f"mean_{i}"]
         a_ref = ref[f"albedo_{i}"]
-        # the reference's own noise on the L1 metric: sum(stderr) relative to the signal
-        noise = float(np.mean((ref[f"stderr_{i}"] * weight[:, None]).sum(0)
-                              / np.maximum((f_ref * weight[:, None]).sum(0), 1e-30)))
+        noise = reference_noise(ref, i)
         for m in models:
             try:
                 f = api.evaluate(stack, wi, wo, m, deltas=False)  # deltas: compared through the albedo

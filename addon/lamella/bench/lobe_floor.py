@@ -1,0 +1,104 @@
+"""`lamella bench lobe-floor`: how close can one GGX lobe per path get?
+
+For the suite's stacks of one isotropic coat over an isotropic conductor, ``auto`` emits two
+lobes: the coat's surface reflection and the light that crossed the coat, met the base and came
+back out. This bench keeps the surface lobe as the model has it and replaces the base lobe by the
+best isotropic GGX lobe the model's form allows, against the stored energy-conserving references
+(``tests/references/brdf_multiple``): its roughness scanned on a log grid, its energy either the
+model's or the reference's albedo minus the surface lobe's. The relative L1 that remains is the
+floor of the lobe's *shape*: a model that got the base lobe's energy and roughness exactly right
+would still be that far from the reference. Where the floor is far above the target (0.10), the
+next gain needs another lobe shape (anisotropic about the incidence plane, or two lobes), not
+better energies or roughnesses.
+
+Both lobes are normalised over the same half-vector grid as the metric (``suite.wo_grid``), so
+the comparison isolates shape from the grid's quadrature.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..core import api, suite
+from ..core.backends.numpy_ops import NumpyOps
+from ..core.metrics import relative_l1
+from ..core.models.ggx import ggx_lobe_cos
+from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
+from .accuracy import load_reference, reference_noise
+
+ALPHAS = np.geomspace(0.01, 1.0, 81)  # the scan of the base lobe's roughness
+
+
+def cases() -> list[str]:
+    """Suite stacks of one isotropic coat over an isotropic conductor (two lobes under ``auto``)."""
+    out = []
+    for name in suite.names():
+        st = suite.load(name)
+        layers = (*st.coats, st.base)
+        if (len(st.coats) == 1 and st.base.type == "conductor" and not st.has_scattering
+                and all(layer.roughness[0] == layer.roughness[1] for layer in layers)):
+            out.append(name)
+    return out
+
+
+def _shape(ops, wi, wo, weight, alpha):
+    """A GGX lobe of roughness ``alpha`` about the mirror direction, f cos, unit integral on the grid."""
+    wib = np.broadcast_to(wi, wo.shape)
+    v = ggx_lobe_cos(ops, tuple(wib.T), tuple(wo.T), alpha, alpha, 1.0, 0.0)
+    return v / max(float((v * weight).sum()), 1e-12)
+
+
+def measure() -> list[dict]:
+    ops = NumpyOps(np.float64)
+    rows = []
+    for name in cases():
+        stack = suite.load(name)
+        ref = load_reference(name, REFERENCE_DIR_MULTIPLE)
+        for i, deg in enumerate(ref["wi_degrees"]):
+            wi = suite.incident(float(deg))
+            wo, w, f_ref = ref[f"wo_{i}"], ref[f"weight_{i}"], ref[f"mean_{i}"]
+            lb = api.lobes(stack, wi, "auto")
+            top = lb.weight[0, 0][None] * _shape(ops, wi, wo, w, lb.alpha_x[0, 0])[:, None]
+            e_model = lb.weight[0, 1]
+            e_ref = np.maximum((f_ref * w[:, None]).sum(0) - lb.weight[0, 0], 0.0)
+
+            def err(energy, alpha):
+                return relative_l1(top + energy[None] * _shape(ops, wi, wo, w, alpha)[:, None], f_ref, w)
+
+            best_m = min((err(e_model, a), a) for a in ALPHAS)
+            best_r = min((err(e_ref, a), a) for a in ALPHAS)
+            rows.append({"case": name, "wi": float(deg), "model": lb.model,
+                         "alpha_model": float(lb.alpha_x[0, 1]),
+                         "rel_l1_auto": relative_l1(api.evaluate(stack, wi, wo, "auto", deltas=False), f_ref, w),
+                         "rel_l1_model_shape": err(e_model, lb.alpha_x[0, 1]),
+                         "alpha_best": float(best_m[1]), "rel_l1_best_alpha": float(best_m[0]),
+                         "alpha_best_ref_energy": float(best_r[1]), "rel_l1_floor": float(best_r[0]),
+                         "ref_noise": reference_noise(ref, i)})
+    return rows
+
+
+def run(out_dir: Path = BENCH_DIR) -> Path:
+    rows = measure()
+    (out_dir / "lobe_floor.json").write_text(json.dumps(rows, indent=1))
+    angles = sorted({r["wi"] for r in rows})
+    md = ["# One GGX lobe per path: the floor of its shape", "",
+          "`lamella bench lobe-floor`: the suite's stacks of one isotropic coat over an isotropic conductor, "
+          "against the energy-conserving references. *auto*: the model's relative L1. *best α*: the base lobe's "
+          "roughness scanned (energy the model's). *floor*: roughness scanned and energy the reference's albedo "
+          "minus the surface lobe's, i.e. the error left if energy and roughness were exact "
+          "(`lamella/bench/lobe_floor.py`). *noise*: the reference's own stderr on the metric (a floor of its own).", "",
+          "| case | θi | model α → best α | auto | best α | floor | noise |", "|---|---:|---|---:|---:|---:|---:|"]
+    for r in rows:
+        md.append(f"| {r['case']} | {r['wi']:g}° | {r['alpha_model']:.3f} → {r['alpha_best']:.3f} | "
+                  f"{r['rel_l1_auto']:.3f} | {r['rel_l1_best_alpha']:.3f} | {r['rel_l1_floor']:.3f} | {r['ref_noise']:.3f} |")
+    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | noise |", "|---:|---:|---:|---:|---:|"]
+    for a in angles:
+        sel = [r for r in rows if r["wi"] == a]
+        md.append(f"| {a:g}° | {np.median([r['rel_l1_auto'] for r in sel]):.3f} | "
+                  f"{np.median([r['rel_l1_best_alpha'] for r in sel]):.3f} | "
+                  f"{np.median([r['rel_l1_floor'] for r in sel]):.3f} | {np.median([r['ref_noise'] for r in sel]):.3f} |")
+    out = out_dir / "lobe_floor.md"
+    out.write_text("\n".join(md) + "\n")
+    return out

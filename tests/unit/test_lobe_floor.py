@@ -1,0 +1,21 @@
+"""`lamella bench lobe-floor`: the scan of the base lobe's roughness finds at least what the model's
+own roughness gives, on the cases it selects."""
+from lamella.bench import lobe_floor
+from lamella.core import suite
+
+
+def test_cases_are_one_isotropic_coat_over_a_conductor():
+    names = lobe_floor.cases()
+    assert "frosted_metal" in names and "gold_coated" in names
+    for name in names:
+        st = suite.load(name)
+        assert len(st.coats) == 1 and st.base.type == "conductor" and not st.has_scattering
+
+
+def test_the_best_roughness_is_no_worse_than_the_models():
+    rows = [r for r in lobe_floor.measure() if r["case"] in ("frosted_metal", "gold_coated")]
+    assert len(rows) == 8
+    for r in rows:
+        # the scan is a grid: within its step of the model's roughness, never worse beyond rounding
+        assert r["rel_l1_best_alpha"] <= r["rel_l1_model_shape"] + 0.01, r
+        assert 0.0 < r["rel_l1_floor"] < 1.0
