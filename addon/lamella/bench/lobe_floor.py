@@ -8,8 +8,9 @@ best isotropic GGX lobe the model's form allows, against the stored energy-conse
 model's or the reference's albedo minus the surface lobe's. The relative L1 that remains is the
 floor of the lobe's *shape*: a model that got the base lobe's energy and roughness exactly right
 would still be that far from the reference. Where the floor is far above the target (0.10), the
-next gain needs another lobe shape (anisotropic about the incidence plane, or two lobes), not
-better energies or roughnesses.
+next gain needs another lobe shape, not better energies or roughnesses; the anisotropic floor
+(the base lobe's roughness along and across the incidence plane scanned separately) measures one
+candidate.
 
 Both lobes are normalised over the same half-vector grid as the metric (``suite.wo_grid``), so
 the comparison isolates shape from the grid's quadrature.
@@ -29,6 +30,7 @@ from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
 from .accuracy import load_reference, reference_noise
 
 ALPHAS = np.geomspace(0.01, 1.0, 81)  # the scan of the base lobe's roughness
+ALPHAS_2D = ALPHAS  # the scan of an anisotropic base lobe's two roughnesses (contains the isotropic one)
 
 
 def cases() -> list[str]:
@@ -50,6 +52,21 @@ def _shape(ops, wi, wo, weight, alpha):
     return v / max(float((v * weight).sum()), 1e-12)
 
 
+def _aniso_floor(ops, wi, wo, w, top, energy, f_ref) -> tuple[float, float, float]:
+    """The best GGX lobe with axes along (x) and across (y) the incidence plane (wi has azimuth 0):
+    (relative L1, alpha_x, alpha_y), both roughnesses scanned on ``ALPHAS_2D``."""
+    wib = np.broadcast_to(wi, wo.shape)
+    best = (np.inf, 0.0, 0.0)
+    for ax in ALPHAS_2D:
+        v = ggx_lobe_cos(ops, tuple(wib.T), tuple(wo.T), ax, ALPHAS_2D[:, None], 1.0, 0.0)
+        v = v / np.maximum((v * w).sum(-1, keepdims=True), 1e-12)
+        for k, ay in enumerate(ALPHAS_2D):
+            err = relative_l1(top + energy[None] * v[k][:, None], f_ref, w)
+            if err < best[0]:
+                best = (err, float(ax), float(ay))
+    return best
+
+
 def measure() -> list[dict]:
     ops = NumpyOps(np.float64)
     rows = []
@@ -69,12 +86,14 @@ def measure() -> list[dict]:
 
             best_m = min((err(e_model, a), a) for a in ALPHAS)
             best_r = min((err(e_ref, a), a) for a in ALPHAS)
+            aniso = _aniso_floor(ops, wi, wo, w, top, e_ref, f_ref)
             rows.append({"case": name, "wi": float(deg), "model": lb.model,
                          "alpha_model": float(lb.alpha_x[0, 1]),
                          "rel_l1_auto": relative_l1(api.evaluate(stack, wi, wo, "auto", deltas=False), f_ref, w),
                          "rel_l1_model_shape": err(e_model, lb.alpha_x[0, 1]),
                          "alpha_best": float(best_m[1]), "rel_l1_best_alpha": float(best_m[0]),
                          "alpha_best_ref_energy": float(best_r[1]), "rel_l1_floor": float(best_r[0]),
+                         "rel_l1_floor_aniso": aniso[0], "alpha_along": aniso[1], "alpha_across": aniso[2],
                          "ref_noise": reference_noise(ref, i)})
     return rows
 
@@ -88,17 +107,22 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
           "against the energy-conserving references. *auto*: the model's relative L1. *best α*: the base lobe's "
           "roughness scanned (energy the model's). *floor*: roughness scanned and energy the reference's albedo "
           "minus the surface lobe's, i.e. the error left if energy and roughness were exact "
-          "(`lamella/bench/lobe_floor.py`). *noise*: the reference's own stderr on the metric (a floor of its own).", "",
-          "| case | θi | model α → best α | auto | best α | floor | noise |", "|---|---:|---|---:|---:|---:|---:|"]
+          "(`lamella/bench/lobe_floor.py`). *anisotropic floor*: the same with two roughnesses, along and across the "
+          "incidence plane. *noise*: the reference's own stderr on the metric (a floor of its own).", "",
+          "| case | θi | model α → best α | auto | best α | floor | anisotropic floor (α along, across) | noise |",
+          "|---|---:|---|---:|---:|---:|---|---:|"]
     for r in rows:
         md.append(f"| {r['case']} | {r['wi']:g}° | {r['alpha_model']:.3f} → {r['alpha_best']:.3f} | "
-                  f"{r['rel_l1_auto']:.3f} | {r['rel_l1_best_alpha']:.3f} | {r['rel_l1_floor']:.3f} | {r['ref_noise']:.3f} |")
-    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | noise |", "|---:|---:|---:|---:|---:|"]
+                  f"{r['rel_l1_auto']:.3f} | {r['rel_l1_best_alpha']:.3f} | {r['rel_l1_floor']:.3f} | "
+                  f"{r['rel_l1_floor_aniso']:.3f} ({r['alpha_along']:.3f}, {r['alpha_across']:.3f}) | {r['ref_noise']:.3f} |")
+    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | anisotropic floor | noise |",
+           "|---:|---:|---:|---:|---:|---:|"]
     for a in angles:
         sel = [r for r in rows if r["wi"] == a]
         md.append(f"| {a:g}° | {np.median([r['rel_l1_auto'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_best_alpha'] for r in sel]):.3f} | "
-                  f"{np.median([r['rel_l1_floor'] for r in sel]):.3f} | {np.median([r['ref_noise'] for r in sel]):.3f} |")
+                  f"{np.median([r['rel_l1_floor'] for r in sel]):.3f} | "
+                  f"{np.median([r['rel_l1_floor_aniso'] for r in sel]):.3f} | {np.median([r['ref_noise'] for r in sel]):.3f} |")
     out = out_dir / "lobe_floor.md"
     out.write_text("\n".join(md) + "\n")
     return out
