@@ -267,7 +267,8 @@ def cmd_render(a) -> int:
     sun = tuple(float(x) for x in a.sun_dir.split(","))
     out = Path(a.out or f"out/{stack.name or Path(a.stack).stem}_{a.scene}_{a.engine}.exr")
     out.parent.mkdir(parents=True, exist_ok=True)
-    _, seconds = render_stack(stack, a.scene, sun_dir=sun, res=a.res, spp=a.spp, engine=a.engine, out=out)
+    _, seconds = render_stack(stack, a.scene, sun_dir=sun, res=a.res, spp=a.spp, engine=a.engine, out=out,
+                              interfaces=a.interfaces)
     print(f"render time {seconds:.2f} s -> {out}")
     return 0
 
@@ -279,10 +280,14 @@ def cmd_image_references(a) -> int:
     command = "lamella image-references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp} --res {a.res}"
     if a.thickness is not None:
         command += f" --thickness {a.thickness}"
-    out = Path(a.out) if a.out else ir.IMAGE_REFERENCE_DIR
+    if a.interfaces != "single":
+        command += f" --interfaces {a.interfaces}"
+    default = ir.IMAGE_REFERENCE_DIR_MULTIPLE if a.interfaces == "multiple" else ir.IMAGE_REFERENCE_DIR
+    out = Path(a.out) if a.out else default
     if a.add:
         command = ir.load_index(out).get("command", command) + f"; refined by {command} --add"
-    ir.compute(cases, res=a.res, spp=a.spp, out_dir=out, thickness=a.thickness, command=command, add=a.add)
+    ir.compute(cases, res=a.res, spp=a.spp, out_dir=out, thickness=a.thickness, command=command, add=a.add,
+               interfaces=a.interfaces)
     return 0
 
 
@@ -415,6 +420,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "GPU); eevee: the node group in EEVEE; principled: the closest Principled BSDF (eevee-principled: in "
                         "EEVEE); reference: "
                         "the stack as nested interface spheres, path traced (slow)")
+    p.add_argument("--interfaces", choices=["single", "multiple"], default="single",
+                   help="reference engine: rough interfaces scatter once, or keep the energy their microsurface "
+                        "scatters again (Cycles' multiscatter GGX)")
     p.add_argument("--out")
     p.set_defaults(fn=cmd_render)
 
@@ -426,6 +434,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--thickness", type=float, help="shell thickness per coat (default 0.004 of the radius)")
     p.add_argument("--out", help="output folder (default: tests/references/images)")
     p.add_argument("--add", action="store_true", help="refine the stored references by --spp more samples")
+    p.add_argument("--interfaces", choices=["single", "multiple"], default="single",
+                   help="rough interfaces scatter once, or keep the energy their microsurface scatters again "
+                        "(Cycles' multiscatter GGX; stored in tests/references/images_multiple)")
     p.set_defaults(fn=cmd_image_references)
 
     p = sub.add_parser("demo", help="the main job: render the demo stacks (EXR, PNG, contact sheet) into a folder")

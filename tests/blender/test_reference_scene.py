@@ -56,6 +56,47 @@ def test_nested_spheres_reproduce_the_stochastic_albedo(case):
         assert rel.max() < 0.02, ((lo, hi), got, want)
 
 
+def test_energy_conserving_interfaces_keep_a_lossless_stack_white():
+    """``interfaces="multiple"`` (Cycles' multiscatter GGX in every interface): a rough coat over a
+    perfect mirror, both alpha 0.3, loses nothing, so the white furnace renders about 1; with
+    single-scattering interfaces the microsurfaces' masking loses a quarter of the light.
+    Measured at 32 px, 64 spp: mean 0.985 against 0.716."""
+    from lamella.core.stack import Stack
+
+    d = {"name": "mirror_under_rough_coat", "layers": [{"type": "coat", "ior": 1.5, "roughness": 0.3}],
+         "base": {"type": "conductor", "eta": [0.001] * 3, "k": [1000.0] * 3, "roughness": 0.3}}
+    means = {}
+    for interfaces in ("single", "multiple"):
+        px, _ = render_stack(Stack.from_dict(d), "white-furnace", res=32, spp=64, engine="reference",
+                             interfaces=interfaces)
+        assert np.isfinite(px).all() and (px >= 0).all()
+        means[interfaces] = float(px[px[..., 3] > 0.999, :3].mean())
+    assert means["multiple"] > 0.97 and means["single"] < 0.8, means
+
+
+def test_energy_conserving_nested_spheres_reproduce_the_energy_conserving_albedo():
+    """gold_coated with Cycles' multiscatter GGX interfaces against ``reference.albedo`` with
+    Heitz et al. 2016's random walk (``interfaces="multiple"``), bands as above: within 2 %
+    (measured 0.2-1.0 %). The two keep a microsurface's energy differently: Cycles scales the
+    single-scattering lobe by 1 / E (its shape unchanged) where the walk spreads it, so under a
+    rougher coat they part: rough_coat_over_mirror (coat alpha 0.3) is 4-7 % apart in green and
+    blue (not asserted)."""
+    stack = suite.load("gold_coated")
+    px, _ = render_stack(stack, "white-furnace", res=RES, spp=256, engine="reference", interfaces="multiple")
+    theta = view_angles(RES)
+    for lo, hi in ((0.0, 20.0), (25.0, 35.0), (55.0, 65.0)):
+        m = (theta >= lo) & (theta < hi) & (px[..., 3] > 0.999)
+        got = px[m, :3].mean(0)
+        edges = np.arange(lo, hi + 1e-9, 2.0)
+        counts, _ = np.histogram(theta[m], edges)
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        wi = np.stack([suite.incident(t) for t in centres])
+        want, _ = reference.albedo(stack, wi, spp=1 << 14, seed=7, interfaces="multiple")
+        want = (np.asarray(want).reshape(-1, 3) * counts[:, None]).sum(0) / counts.sum()
+        rel = np.abs(got - want) / want
+        assert rel.max() < 0.02, ((lo, hi), got, want)
+
+
 def test_shell_geometry():
     stack = suite.load("three_coats")
     assert interface_radii(stack, 0.004) == pytest.approx([1.0, 0.996, 0.992, 0.988])

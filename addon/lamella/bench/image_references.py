@@ -20,6 +20,7 @@ from ..core.exr import read_rgba, write_rgba
 from . import REPO
 
 IMAGE_REFERENCE_DIR = REPO / "tests" / "references" / "images"
+IMAGE_REFERENCE_DIR_MULTIPLE = REPO / "tests" / "references" / "images_multiple"  # energy-conserving interfaces
 INDEX = "INDEX.json"
 RES = 128
 SPP = 2048
@@ -36,15 +37,17 @@ def load_index(out_dir: Path = IMAGE_REFERENCE_DIR) -> dict:
     return json.loads(p.read_text()) if p.exists() else {"cases": {}}
 
 
-def render_chunks(name: str, seeds, chunk_spp: int, res: int = RES, thickness: float | None = None):
-    """The reference renders of suite case ``name``, one per seed: (list of RGBA images, seconds)."""
+def render_chunks(name: str, seeds, chunk_spp: int, res: int = RES, thickness: float | None = None,
+                  interfaces: str = "single"):
+    """The reference renders of suite case ``name``, one per seed: (list of RGBA images, seconds).
+    ``interfaces``: as ``reference_scene.build_reference``."""
     from ..blender.render import render_stack
 
     stack = suite.load(name)
     images, seconds = [], 0.0
     for seed in seeds:
         img, t = render_stack(stack, "sphere-env", res=res, spp=chunk_spp, engine="reference", seed=seed,
-                              thickness=thickness)
+                              thickness=thickness, interfaces=interfaces)
         images.append(img)
         seconds += t
     return images, seconds
@@ -58,11 +61,12 @@ def chunk_noise(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
 
 
 def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_REFERENCE_DIR,
-            thickness: float | None = None, command: str = "", add: bool = False) -> Path:
+            thickness: float | None = None, command: str = "", add: bool = False, interfaces: str = "single") -> Path:
     """Render (or with ``add``, refine) the stored references. A reference is the mean of chunks of
     ``spp / 2`` samples with seeds 0, 1, 2, ...; refining renders two more chunks and folds them in,
     so references can be improved in steps. The noise figure is the chunk standard deviation (from
-    the newest pair of chunks) divided by sqrt(number of chunks)."""
+    the newest pair of chunks) divided by sqrt(number of chunks). ``interfaces``: the nested
+    spheres' rough interfaces (``reference_scene.INTERFACES``), recorded per case."""
     from ..blender.reference_scene import SHELL_THICKNESS
 
     out_dir = Path(out_dir)
@@ -78,7 +82,9 @@ def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_RE
         first = len(old["seeds"]) if old else 0
         seeds = [first, first + 1]
         used_thickness = old["shell_thickness"] if old is not None else (thickness or SHELL_THICKNESS)
-        (a, b), seconds = render_chunks(name, seeds, chunk_spp, res, used_thickness)
+        if old is not None and old.get("interfaces", "single") != interfaces:
+            raise ValueError(f"{name}: stored with {old.get('interfaces', 'single')} interfaces, not {interfaces}")
+        (a, b), seconds = render_chunks(name, seeds, chunk_spp, res, used_thickness, interfaces)
         new = 0.5 * (a + b)
         if old is not None:
             k_old = len(old["seeds"])
@@ -92,7 +98,7 @@ def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_RE
         write_rgba(out_dir / f"{name}.exr", img, half=True)
         index["cases"][name] = {
             "file": f"{name}.exr", "res": res, "spp": chunk_spp * len(seeds), "chunk_spp": chunk_spp,
-            "seeds": seeds, "shell_thickness": used_thickness,
+            "seeds": seeds, "shell_thickness": used_thickness, "interfaces": interfaces,
             "chunk_noise_rmse": sigma, "noise_rmse": sigma / np.sqrt(len(seeds)),
             "render_seconds": round(seconds, 1),
             "mean_radiance": [float(x) for x in img[m, :3].mean(0)],

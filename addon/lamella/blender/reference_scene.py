@@ -223,18 +223,27 @@ def _interface_material(bpy, text, name: str, surface: str, params: dict, volume
     return mat
 
 
-def _dielectric(eta: float, roughness, rotation: float) -> tuple[str, dict]:
+def _dielectric(eta: float, roughness, rotation: float, energy_conserving: int = 0) -> tuple[str, dict]:
     """The surface of a boundary of relative index ``eta``: an index-matched smooth boundary is
     Transparent (nothing to reflect or bend), anything else the OSL rough dielectric."""
     if abs(eta - 1.0) < MATCHED_ETA and roughness[0] == 0.0 and roughness[1] == 0.0:
         return "transparent", {}
     return "script", {"eta": eta, "alpha_x": roughness[0], "alpha_y": roughness[1], "rotation": rotation,
-                      "conductor": 0}
+                      "conductor": 0, "energy_conserving": energy_conserving}
 
 
-def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS):
-    """Turn the canonical scene's sphere into the nested-interface reference of ``stack``."""
+INTERFACES = ("single", "multiple")  # as lamella.core.reference.INTERFACES
+
+
+def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS, interfaces: str = "single"):
+    """Turn the canonical scene's sphere into the nested-interface reference of ``stack``. Its rough
+    interfaces scatter once (``interfaces="single"``) or keep the energy their microsurface
+    scatters again (``"multiple"``: Cycles' multiscatter GGX, see the interface shader)."""
     import bpy
+
+    if interfaces not in INTERFACES:
+        raise ValueError(f"interfaces must be one of {', '.join(INTERFACES)}, got {interfaces!r}")
+    ec = int(interfaces == "multiple")
 
     base = stack.base
     if base.type not in BASE_TYPES:
@@ -262,18 +271,18 @@ def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS
         obj.name = f"interface_{i}"
         if i < len(stack.coats):
             coat = stack.coats[i]
-            surface, params = _dielectric(coat.ior / n_above, coat.roughness, coat.rotation)
+            surface, params = _dielectric(coat.ior / n_above, coat.roughness, coat.rotation, ec)
             mat = _interface_material(bpy, text, f"interface_{i}", surface, params, volumes[i])
             n_above = coat.ior
         elif base.type == "conductor":
             params = {"alpha_x": base.roughness[0], "alpha_y": base.roughness[1], "rotation": base.rotation,
                       "conductor": 1, "conductor_eta": tuple(e / n_above for e in base.eta),
-                      "conductor_k": tuple(k / n_above for k in base.k)}
+                      "conductor_k": tuple(k / n_above for k in base.k), "energy_conserving": ec}
             mat = _interface_material(bpy, text, "base", "script", params)
         elif base.type == "diffuse":
             mat = _interface_material(bpy, text, "base", "diffuse", {"albedo": tuple(base.albedo)})
         else:
-            surface, params = _dielectric(base.ior / n_above, base.roughness, base.rotation)
+            surface, params = _dielectric(base.ior / n_above, base.roughness, base.rotation, ec)
             mat = _interface_material(bpy, text, "base", surface, params)
         obj.data.materials.append(mat)
     return radii

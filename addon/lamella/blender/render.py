@@ -191,11 +191,12 @@ def _principled(nt, stack):
 def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp=32, engine="cycles-osl",
                  out: str | Path | None = None, filter_width: float | None = None, seed: int = 0,
                  thickness: float | None = None, open_back: bool = False, model: str = "auto", budget="auto",
-                 staged: bool = True):
+                 staged: bool = True, interfaces: str = "single"):
     """Render ``stack`` into a canonical scene; returns (RGBA float32 array, top row first;
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
-    as in ``build_scene``; ``model`` the layered model of the cycles-osl shader."""
+    as in ``build_scene``; ``model`` the layered model of the cycles-osl shader; ``interfaces`` the
+    reference's rough interfaces (``reference_scene.INTERFACES``)."""
     from ..core.exr import write_rgba
     from ..core.stack import Stack
 
@@ -206,7 +207,7 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
     if engine == "reference":
         from .reference_scene import SHELL_THICKNESS, build_reference
 
-        build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS)
+        build_reference(sc, sphere, stack, thickness if thickness is not None else SHELL_THICKNESS, interfaces)
     else:
         assign_material(sphere, stack, engine, model, budget, staged)
     px, seconds = render_scene(sc)
