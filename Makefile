@@ -63,12 +63,15 @@ references: setup
 # The energy-conserving BRDF references (tests/references/brdf_multiple: rough interfaces scatter on
 # their microsurface until light leaves, Heitz et al. 2016), 2-5 min per case at 8192 walkers on one
 # core, four times that at 32768: the cases whose narrow exit interface makes the estimate noisiest
-# get the latter (their noise on the metric at 0 deg was 0.11-0.31 at 8192 walkers).
+# get the latter (their noise on the metric at 0 deg was 0.11-0.31 at 8192 walkers). 45 degrees is
+# added to the stored files afterwards (suite.REFERENCE_ANGLES; the single-scattering set has none).
 MULTIPLE_32K := endf_thin_gold,thin_coat_rough_base,rough_glass_plate,varnished_wood,tinted_varnish,rotated_30,opposing_anisotropy,rotated_60,green_scatter_d6,endf_absorbing_gold
 MULTIPLE_8K := $(shell $(PYTHON) -c "import json; s = set('$(MULTIPLE_32K)'.split(',')); print(','.join(c for c in json.load(open('addon/lamella/data/stacks/SUITE.json')) if c not in s))")
 references-multiple: setup
 	$(VENV)/bin/lamella references --interfaces multiple --spp 8192 --cases $(MULTIPLE_8K)
 	$(VENV)/bin/lamella references --interfaces multiple --spp 32768 --cases $(MULTIPLE_32K)
+	$(VENV)/bin/lamella references --interfaces multiple --wi 45 --spp 8192 --cases $(MULTIPLE_8K)
+	$(VENV)/bin/lamella references --interfaces multiple --wi 45 --spp 32768 --cases $(MULTIPLE_32K)
 
 # BRDF references of the cases awaiting image references (PENDING.json: media, diffuse and glass
 # bases, ENDF-sized coats), 4-12 min each on one core; run two halves in parallel on 2 cores.

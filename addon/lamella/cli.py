@@ -100,9 +100,10 @@ def cmd_references(a) -> int:
 
     cases = a.cases.split(",") if a.cases else None
     command = ("lamella references" + (f" --cases {a.cases}" if a.cases else "") + f" --spp {a.spp}"
-               + f" --interfaces {a.interfaces}")
+               + f" --interfaces {a.interfaces}" + (f" --wi {a.wi}" if a.wi else ""))
+    angles = tuple(float(x) for x in a.wi.split(",")) if a.wi else None
     accuracy.compute_references(cases, spp=a.spp, out_dir=Path(a.out) if a.out else None, command=command,
-                                interfaces=a.interfaces)
+                                interfaces=a.interfaces, angles=angles)
     return 0
 
 
@@ -358,6 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("references", help="compute and store the BRDF references of the accuracy suite")
     p.add_argument("--cases", help="comma-separated suite cases (default: all)")
     p.add_argument("--spp", type=int, default=2048)
+    p.add_argument("--wi", help="incidences in degrees (default: the suite's); others are added to the stored "
+                                "references (45 is the one defined besides them)")
     p.add_argument("--interfaces", choices=("single", "multiple"), default="single",
                    help="rough interfaces scatter once (pbrt-v4) or on their microsurface until they leave "
                         "(Heitz et al. 2016; stored in tests/references/brdf_multiple)")

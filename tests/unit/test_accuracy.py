@@ -123,3 +123,25 @@ def test_auto_is_within_ten_percent_of_the_best_model(rows, case):
 
     best = min(mean(m) for m in MODELS if m != "auto")
     assert mean("auto") <= 1.1 * best, (mean("auto"), best)
+
+
+def test_an_added_incidence_keeps_the_stored_ones(tmp_path):
+    """``lamella references --wi 45`` adds an incidence to a stored reference: the others are kept
+    as they were (same arrays), the file's angles stay sorted and its meta records the addition."""
+    import shutil
+
+    from lamella.bench.accuracy import compute_references
+
+    shutil.copy(REFERENCE_DIR / "gold_coated.npz", tmp_path / "gold_coated.npz")
+    before = load_reference("gold_coated", tmp_path)
+    compute_references(["gold_coated"], spp=4, albedo_spp=64, out_dir=tmp_path, angles=(45.0,), progress=lambda *_: None)
+    after = load_reference("gold_coated", tmp_path)
+    assert list(after["wi_degrees"]) == [0.0, 30.0, 45.0, 60.0, 75.0]
+    for old_i, deg in enumerate(before["wi_degrees"]):
+        new_i = list(after["wi_degrees"]).index(deg)
+        for key in ("wo", "mean", "stderr", "albedo"):
+            np.testing.assert_array_equal(after[f"{key}_{new_i}"], before[f"{key}_{old_i}"])
+    assert after["meta"]["added"][0]["wi_degrees"] == [45.0]
+    assert after["meta"]["command"] == before["meta"]["command"]
+    rows = evaluate_case("gold_coated", after, ("auto",))
+    assert sorted(r["wi"] for r in rows) == [0.0, 30.0, 45.0, 60.0, 75.0]

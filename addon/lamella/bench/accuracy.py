@@ -29,40 +29,86 @@ def reference_dir(interfaces: str) -> Path:
     return REFERENCE_DIR_MULTIPLE if interfaces == "multiple" else REFERENCE_DIR
 
 
+def _angle_arrays(stack, deg: float, spp: int, albedo_spp: int, seed: int, interfaces: str) -> dict:
+    """One incidence of a stored reference: its arrays without the index suffix (``wo``, ``mean``,
+    ... and the transmitted side's for a dielectric base). The seeds are offset by the angle's
+    position in ``suite.REFERENCE_ANGLES``."""
+    k = 1000 * suite.REFERENCE_ANGLES.index(deg)
+    wi = suite.incident(deg)
+    wo, weight = suite.wo_grid(wi)
+    mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + k, interfaces=interfaces)
+    amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + k + 1, interfaces=interfaces)
+    out = {"wo": wo, "weight": weight, "mean": mean, "stderr": err,
+           "albedo": np.asarray(amean).reshape(3), "albedo_stderr": np.asarray(aerr).reshape(3)}
+    if stack.base.type == "dielectric":  # light crossing the base: the transmitted side
+        wo, weight = suite.wo_grid_transmitted(wi)
+        mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + k + 2, interfaces=interfaces)
+        amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + k + 3, side="transmitted",
+                                      interfaces=interfaces)
+        out.update({"wo_t": wo, "weight_t": weight, "mean_t": mean, "stderr_t": err,
+                    "albedo_t": np.asarray(amean).reshape(3), "albedo_t_stderr": np.asarray(aerr).reshape(3)})
+    return out
+
+
+def _split_angles(data: dict) -> dict[float, dict]:
+    """A stored reference's arrays per incidence (the inverse of how ``compute_references`` stores them)."""
+    per = {}
+    for i, deg in enumerate(data["wi_degrees"]):
+        suffix = f"_{i}"
+        per[float(deg)] = {k[: -len(suffix)]: v for k, v in data.items() if k.endswith(suffix) and k[: -len(suffix)]
+                           in ANGLE_KEYS}
+    return per
+
+
+ANGLE_KEYS = ("wo", "weight", "mean", "stderr", "albedo", "albedo_stderr",
+              "wo_t", "weight_t", "mean_t", "stderr_t", "albedo_t", "albedo_t_stderr")
+
+
 def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, seed: int = 1,
                        out_dir: Path | None = None, command: str = "", progress=print,
-                       interfaces: str = "single") -> list[Path]:
+                       interfaces: str = "single", angles=None) -> list[Path]:
+    """Compute and store the references of ``cases`` at the incidences ``angles`` (default
+    ``suite.WI_DEGREES``). Angles outside the default are added to a stored reference (its other
+    angles kept, the added ones recorded in its meta with their walkers and command)."""
     out_dir = reference_dir(interfaces) if out_dir is None else out_dir
     out_dir.mkdir(parents=True, exist_ok=True)
+    angles = tuple(float(a) for a in (angles or suite.WI_DEGREES))
+    unknown = [a for a in angles if a not in suite.REFERENCE_ANGLES]
+    if unknown:
+        raise ValueError(f"incidence {unknown} is not one of suite.REFERENCE_ANGLES {suite.REFERENCE_ANGLES}")
     written = []
     for name in cases or suite.names():
         stack = suite.load(name)
-        data: dict[str, np.ndarray] = {"wi_degrees": np.array(suite.WI_DEGREES)}
-        t0 = time.time()
-        for i, deg in enumerate(suite.WI_DEGREES):
-            wi = suite.incident(deg)
-            wo, weight = suite.wo_grid(wi)
-            mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i, interfaces=interfaces)
-            amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 1, interfaces=interfaces)
-            data.update({f"wo_{i}": wo, f"weight_{i}": weight, f"mean_{i}": mean, f"stderr_{i}": err,
-                         f"albedo_{i}": np.asarray(amean).reshape(3), f"albedo_stderr_{i}": np.asarray(aerr).reshape(3)})
-            if stack.base.type == "dielectric":  # light crossing the base: the transmitted side
-                wo, weight = suite.wo_grid_transmitted(wi)
-                mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + 1000 * i + 2, interfaces=interfaces)
-                amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + 1000 * i + 3, side="transmitted",
-                                              interfaces=interfaces)
-                data.update({f"wo_t_{i}": wo, f"weight_t_{i}": weight, f"mean_t_{i}": mean, f"stderr_t_{i}": err,
-                             f"albedo_t_{i}": np.asarray(amean).reshape(3),
-                             f"albedo_t_stderr_{i}": np.asarray(aerr).reshape(3)})
-        meta = {"case": name, "stack": stack.to_dict(), "spp": spp, "albedo_spp": albedo_spp, "seed": seed,
-                "interfaces": interfaces,
-                "command": command or f"lamella references --cases {name} --spp {spp}",
-                "seconds": round(time.time() - t0, 1), "machine": platform.machine()}
-        data["meta"] = np.array(json.dumps(meta))
         path = out_dir / f"{name}.npz"
+        add = set(angles) != set(suite.WI_DEGREES)
+        per: dict[float, dict] = {}
+        meta: dict = {}
+        if add:
+            if not path.exists():
+                raise FileNotFoundError(f"{path}: compute the reference at {suite.WI_DEGREES} first")
+            old = load_reference(name, out_dir)
+            meta = old.pop("meta")
+            if meta["stack"] != stack.to_dict() or meta.get("interfaces", "single") != interfaces:
+                raise ValueError(f"{path}: stored for another stack or interface setting")
+            per = _split_angles(old)
+        t0 = time.time()
+        for deg in angles:
+            per[deg] = _angle_arrays(stack, deg, spp, albedo_spp, seed, interfaces)
+        cmd = command or f"lamella references --cases {name} --spp {spp}"
+        if add:
+            meta.setdefault("added", []).append({"wi_degrees": list(angles), "spp": spp, "command": cmd,
+                                                 "seconds": round(time.time() - t0, 1)})
+        else:
+            meta = {"case": name, "stack": stack.to_dict(), "spp": spp, "albedo_spp": albedo_spp, "seed": seed,
+                    "interfaces": interfaces, "command": cmd,
+                    "seconds": round(time.time() - t0, 1), "machine": platform.machine()}
+        data: dict[str, np.ndarray] = {"wi_degrees": np.array(sorted(per))}
+        for i, deg in enumerate(sorted(per)):
+            data.update({f"{k}_{i}": v for k, v in per[deg].items()})
+        data["meta"] = np.array(json.dumps(meta))
         np.savez_compressed(path, **data)
         written.append(path)
-        progress(f"{name}: {meta['seconds']} s -> {path}")
+        progress(f"{name}: {round(time.time() - t0, 1)} s -> {path}")
     return written
 
 
@@ -205,7 +251,7 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
     if rows_multiple:
         n = len({r["case"] for r in rows_multiple})
         lines += [f"Against **multiple-scattering** interfaces ({n} of {len({r['case'] for r in rows})} cases stored):", ""]
-        lines += median_table(rows_multiple, models, wis) + [""]
+        lines += median_table(rows_multiple, models, sorted({r["wi"] for r in rows_multiple})) + [""]
     lines += ["Against **single-scattering** interfaces:", ""] + median_table(rows, models, wis) + [""]
     lines += [
         "## Per case",
@@ -231,7 +277,8 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
         "",
     ]
     if rows_multiple:
-        lines += ["## Against multiple-scattering interfaces", ""] + _case_tables(rows_multiple, models, wis, desc)
+        lines += (["## Against multiple-scattering interfaces", ""]
+                  + _case_tables(rows_multiple, models, sorted({r["wi"] for r in rows_multiple}), desc))
         lines += ["## Against single-scattering interfaces", ""]
     lines += _case_tables([r for r in rows if not r.get("pending")], models, wis, desc)
     pending = [r for r in rows if r.get("pending")]

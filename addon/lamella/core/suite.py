@@ -19,6 +19,10 @@ STACK_DIR = Path(__file__).resolve().parent.parent / "data" / "stacks"
 # exactness test and the shader-cost table use.
 EXAMPLE_DIR = Path(__file__).resolve().parent.parent / "data" / "examples"
 WI_DEGREES = (0.0, 30.0, 60.0, 75.0)
+# Every incidence a stored reference may hold, in the order that numbers their random seeds (an
+# angle's seed offset is its position here, so adding an angle to stored references leaves the
+# others' seeds as they were): 45 degrees came after the first four.
+REFERENCE_ANGLES = (*WI_DEGREES, 45.0)
 WI_AZIMUTH = 0.0  # incidence plane along the shading tangent
 
 
