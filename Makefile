@@ -48,7 +48,8 @@ bench-accuracy: setup
 
 # The stored BRDF references (about 50 min on 2 cores for the interface cases, 4-12 min more per
 # medium case on one core): cases with a narrow exit interface need more walkers to keep the noise
-# floor of bench/accuracy.md below 0.1.
+# floor of bench/accuracy.md below 0.1. 45 degrees is added to the stored files afterwards, with the
+# same walkers per case (suite.REFERENCE_ANGLES).
 MEDIA_REST := fog_g09_d1,fog_g09_d4,fog_g0,fog_g03,fog_g07,fog_g05_d4,milky_coat_d01,milky_coat_d2,green_scatter_d1,green_scatter_d6
 MEDIA_CASES := fog_g09_d01,$(MEDIA_REST)
 NEW_INTERFACE_CASES := absorbing_rough_coat,varnished_wood,rough_glass_plate,thin_coat_rough_base,endf_thin_gold,endf_absorbing_gold,endf_rough_over_mirror_gold
@@ -59,12 +60,17 @@ references: setup
 	$(VENV)/bin/lamella references --cases $(MEDIA_CASES),$(NEW_CASES_32K) --spp 32768
 	$(VENV)/bin/lamella references --cases thin_coat_rough_base,rough_glass_plate --spp 65536
 	$(VENV)/bin/lamella references --cases endf_thin_gold --spp 131072
+	$(VENV)/bin/lamella references --wi 45 --cases frosted_metal,three_coats,rough_coat_over_mirror --spp 8192
+	$(VENV)/bin/lamella references --wi 45 --cases gold_coated,coat_over_brushed,rotated_30,rotated_60,rotated_90,tinted_varnish,opposing_anisotropy --spp 32768
+	$(VENV)/bin/lamella references --wi 45 --cases $(MEDIA_CASES),$(NEW_CASES_32K) --spp 32768
+	$(VENV)/bin/lamella references --wi 45 --cases thin_coat_rough_base,rough_glass_plate --spp 65536
+	$(VENV)/bin/lamella references --wi 45 --cases endf_thin_gold --spp 131072
 
 # The energy-conserving BRDF references (tests/references/brdf_multiple: rough interfaces scatter on
 # their microsurface until light leaves, Heitz et al. 2016), 2-5 min per case at 8192 walkers on one
 # core, four times that at 32768: the cases whose narrow exit interface makes the estimate noisiest
 # get the latter (their noise on the metric at 0 deg was 0.11-0.31 at 8192 walkers). 45 degrees is
-# added to the stored files afterwards (suite.REFERENCE_ANGLES; the single-scattering set has none).
+# added to the stored files afterwards (suite.REFERENCE_ANGLES), as for the single-scattering set.
 MULTIPLE_32K := endf_thin_gold,thin_coat_rough_base,rough_glass_plate,varnished_wood,tinted_varnish,rotated_30,opposing_anisotropy,rotated_60,green_scatter_d6,endf_absorbing_gold
 MULTIPLE_8K := $(shell $(PYTHON) -c "import json; s = set('$(MULTIPLE_32K)'.split(',')); print(','.join(c for c in json.load(open('addon/lamella/data/stacks/SUITE.json')) if c not in s))")
 references-multiple: setup
