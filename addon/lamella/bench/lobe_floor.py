@@ -30,7 +30,6 @@ from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
 from .accuracy import load_reference, reference_noise
 
 ALPHAS = np.geomspace(0.01, 1.0, 81)  # the scan of the base lobe's roughness
-ALPHAS_2D = ALPHAS  # the scan of an anisotropic base lobe's two roughnesses (contains the isotropic one)
 
 
 def cases() -> list[str]:
@@ -54,13 +53,13 @@ def _shape(ops, wi, wo, weight, alpha):
 
 def _aniso_floor(ops, wi, wo, w, top, energy, f_ref) -> tuple[float, float, float]:
     """The best GGX lobe with axes along (x) and across (y) the incidence plane (wi has azimuth 0):
-    (relative L1, alpha_x, alpha_y), both roughnesses scanned on ``ALPHAS_2D``."""
+    (relative L1, alpha_x, alpha_y), both roughnesses scanned on ``ALPHAS``."""
     wib = np.broadcast_to(wi, wo.shape)
     best = (np.inf, 0.0, 0.0)
-    for ax in ALPHAS_2D:
-        v = ggx_lobe_cos(ops, tuple(wib.T), tuple(wo.T), ax, ALPHAS_2D[:, None], 1.0, 0.0)
+    for ax in ALPHAS:
+        v = ggx_lobe_cos(ops, tuple(wib.T), tuple(wo.T), ax, ALPHAS[:, None], 1.0, 0.0)
         v = v / np.maximum((v * w).sum(-1, keepdims=True), 1e-12)
-        for k, ay in enumerate(ALPHAS_2D):
+        for k, ay in enumerate(ALPHAS):
             err = relative_l1(top + energy[None] * v[k][:, None], f_ref, w)
             if err < best[0]:
                 best = (err, float(ax), float(ay))
