@@ -115,7 +115,8 @@ def test_layer_list_draws_each_item(addon):
 def test_the_node_group_note_says_what_svm_can_hold(addon):
     """With OSL off the panel says the group renders the OSL shader's image, that it may not fit
     Cycles' SVM stack where linked inputs keep a large part live (the estimate is rough there),
-    and that it renders black above what SVM holds."""
+    that it renders black above what SVM holds, and which linked inputs it reads from tables
+    (and over what range) where it falls back to them."""
     mat = addon.data.materials.new("ui_svm")
     api.apply_stack(mat, suite.load("gold_coated"))
     sc = addon.context.scene
@@ -124,10 +125,12 @@ def test_the_node_group_note_says_what_svm_can_hold(addon):
         sc.render.engine = "CYCLES"
         sc.cycles.shading_system = False
         s = mat.lamella
-        for live, values, want in (("", 20, "the same image"), ("coat0_roughness", 120, "the same image"),
-                                   ("coat0_roughness", 206, "may render black"),
-                                   ("coat0_roughness", 290, "and renders black")):
-            s.live_params, s.node_live_values = live, values
+        for live, values, tables, want in (
+                ("", 20, "", "the same image"), ("coat0_roughness", 120, "", "the same image"),
+                ("coat0_roughness", 206, "", "may render black"),
+                ("coat0_roughness", 90, "coat0_roughness 0 to 1", "tables over their range: coat0_roughness 0 to 1"),
+                ("coat0_roughness", 290, "", "and renders black")):
+            s.live_params, s.node_live_values, s.node_tables = live, values, tables
             text = " ".join(_draw(addon, mat).labels)
             assert want in text, (live, values, text)
     finally:

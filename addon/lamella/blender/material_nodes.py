@@ -228,6 +228,7 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
     rebuilt, None when it was left out of date.""" 
     import bpy
 
+    from ..core.backends.live_axes import socket_ranges
     from ..core.backends.node_graph import emit_plan, live_values
     from ..core.backends.sockets import sockets
     from . import node_group
@@ -254,6 +255,8 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
         tree[STRUCTURE_KEY] = key
         tree[TABLE_KEY] = next(iter(plan.images), "")
         mat.lamella.node_live_values = live_values(plan)
+        ranges = socket_ranges(plan.staged.axis_tables, plan.params) if plan.staged is not None else {}
+        mat.lamella.node_tables = ", ".join(f"{name} {lo:.3g} to {hi:.3g}" for name, (lo, hi) in ranges.items())
         node.node_tree = tree
     else:
         for image, pixels in plan.images.items():

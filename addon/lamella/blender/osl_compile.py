@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import struct
 import re
 import tempfile
 from pathlib import Path
@@ -128,7 +129,15 @@ def set_socket(sock, value) -> None:
     """Set an input socket to ``value``: a float, or an RGB triple (a colour socket holds RGBA)."""
     if isinstance(value, (tuple, list)) and len(value) == 3 and len(sock.default_value) == 4:
         value = (*value, 1.0)
-    sock.default_value = value
+    if _stored(value) != _stored(sock.default_value):  # an unchanged socket is left alone (no update)
+        sock.default_value = value
+
+
+def _stored(value):
+    """``value`` as a socket stores it (float32, a colour as a tuple)."""
+    if isinstance(value, (int, float)):
+        return struct.unpack("f", struct.pack("f", value))[0]
+    return tuple(_stored(v) for v in value)
 
 
 def assign_script(node, text, source: str, name: str = "shader", values: dict | None = None) -> None:

@@ -249,6 +249,10 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
     node_live_values: IntProperty(
         name="Node Group Live Values",
         description="Values the node group keeps alive at once in Cycles without OSL (SVM holds about 215)")
+    node_tables: StringProperty(
+        name="Node Group Tables",
+        description="Linked inputs the node group reads from tables over a range (values outside are clamped), "
+                    "where what they reach is too large for Cycles without OSL")
     compiled_json: StringProperty(name="Compiled Stack", description="The stack of the shader in place (JSON)")
     inspect_angle: FloatProperty(name="View Angle", description="Angle between the view and the normal",
                                  subtype="ANGLE", default=math.radians(30.0), min=0.0,

@@ -112,10 +112,12 @@ def sphere_material(sphere, name: str):
     return mat, nt, nt.nodes.new("ShaderNodeOutputMaterial")
 
 
-def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=()):
+def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=(),
+                    live_axes="auto"):
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
     merged to ``budget``, the sockets or parameters ``live`` read live, as if a texture were linked
-    into them) or, with ``staged`` False, the whole traced model."""
+    into them) or, with ``staged`` False, the whole traced model. ``live_axes``: the node group's
+    tables over linked parameters (``node_graph.emit_plan``)."""
     bpy = _bpy()
     mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":
@@ -132,7 +134,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
         from .node_group import build_group, group_name
 
         group = build_group(emit_plan(stack, model, budget=budget, staged=staged, live=live,
-                                      image=f".lamella_table {mat.name}"),
+                                      image=f".lamella_table {mat.name}", live_axes=live_axes),
                             group_name(stack.name))
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = group

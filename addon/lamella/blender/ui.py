@@ -80,6 +80,11 @@ def draw_status(layout, context, mat) -> None:
                     f"values, Cycles holds about {SVM_STACK - SVM_HEADROOM}) and renders black: unlink an "
                     "input (baked values cost nothing), or use Cycles with OSL on the CPU.")
             box.alert = True
+        elif s.node_tables:
+            note = (f"Cycles renders the node group ({why}). What its linked inputs reach is too large for Cycles "
+                    f"to trace here, so it reads that from tables over their range: {s.node_tables} (a texture "
+                    "value outside is clamped). Within about 1 % of the OSL shader, which traces them exactly; "
+                    "narrow lobes (roughness near 0.1 under a rougher coat) can differ more.")
         elif s.live_params and s.node_live_values > SVM_UNSURE:
             note = (f"Cycles renders the node group ({why}); the part of it that reads the linked inputs "
                     f"({s.live_params}) is near what Cycles holds ({s.node_live_values} live values, about "
@@ -91,6 +96,8 @@ def draw_status(layout, context, mat) -> None:
                 "renders faster.")
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
         note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."
+        if s.node_tables:
+            note += f" It reads its linked inputs from tables over their range: {s.node_tables} (values outside are clamped)."
     elif sc.render.engine != "CYCLES":
         note, fix = "Cycles or EEVEE render this material; this engine shows its other output.", True
     if note:

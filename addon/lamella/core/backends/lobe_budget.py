@@ -386,9 +386,10 @@ class Group:
 
 
 def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFAULT_RULE,
-          views: CheckViews | None = None) -> list[Group]:
+          views: CheckViews | None = None, cap: int = MAX_CLOSURES) -> list[Group]:
     """The closures for ``samples`` (every lobe, on the grid views ``dirs``) under ``budget``
-    (``parse``), never more than ``MAX_CLOSURES``. Lobes that read a linked input
+    (``parse``), never more than ``cap`` closures (``MAX_CLOSURES``: what Cycles' OSL draws; a
+    renderer that draws every closure, Cycles' SVM and EEVEE, may take more). Lobes that read a linked input
     (``LobeSamples.live``, valued at their sockets' values) count against an integer budget and
     the cap; they merge (with each other only, traced by ``staging``) only as far as the cap
     requires, since a merged live closure keeps its members' energies alive until they are summed,
@@ -400,8 +401,8 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFA
     for k, s in enumerate(samples):
         if s.index < 0:
             s.index = k
-    groups = _merge_baked(baked, budget, dirs, len(live), rule, views)
-    room = max(MAX_CLOSURES - len(groups), 1)
+    groups = _merge_baked(baked, budget, dirs, len(live), rule, views, cap)
+    room = max(cap - len(groups), 1)
     if len(live) <= room:
         return groups + [Group(s, [s]) for s in live]
     order = merge_order(live, rule)
@@ -410,9 +411,9 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFA
 
 
 def _merge_baked(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int, rule: str,
-                 views: CheckViews | None) -> list[Group]:
-    """``merge`` of the baked lobes, ``n_live`` closures of live lobes on top."""
-    cap = max(MAX_CLOSURES - n_live, 1)
+                 views: CheckViews | None, closures: int = MAX_CLOSURES) -> list[Group]:
+    """``merge`` of the baked lobes, ``n_live`` closures of live lobes on top, ``closures`` in all."""
+    cap = max(closures - n_live, 1)
     if len(samples) <= 1 or (budget == "all" and len(samples) <= cap):
         return [Group(s, [s]) for s in samples]
     order = merge_order(samples, rule)

@@ -119,6 +119,16 @@ class Plan:
         return [o for o in outs if isinstance(o, Out)]
 
 
+def _rgb_block(values: np.ndarray) -> np.ndarray:
+    """(rows, cells, columns) -> (rows, cells * G, 3): texel j * G + g of a row holds columns
+    3 g .. 3 g + 2 of cell j (zero-padded to G = ceil(columns / 3) groups)."""
+    rows, cells, cols = values.shape
+    groups = -(-cols // 3)
+    padded = np.zeros((rows, cells, groups * 3), dtype=np.float32)
+    padded[..., :cols] = values
+    return padded.reshape(rows, cells * groups, 3)
+
+
 def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[float, float]:
     """The texture coordinates of table coordinates 0 and 1 on an axis of n nodes: the texel
     centres of rows ``offset`` and ``offset + n - 1`` of an image ``rows`` high (a coordinate in
@@ -130,12 +140,14 @@ def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[f
 class _Lowering:
     """Traced graph -> plan nodes, sharing identical nodes."""
 
-    def __init__(self, tracer: Tracer, table=None, image: str = ""):
+    def __init__(self, tracer: Tracer, table=None, image: str = "", axis_tables=()):
         self.t = tracer
         self.table = table  # the material table of a staged graph (``mtab`` reads)
+        self.axis_tables = axis_tables  # its tables over linked parameters (``atab`` reads)
         self.image = image
         self.pixels = None
         self._coords: dict = {}
+        self._layout_cache = None
         self.nodes: list[PlanNode] = []
         self.leaves: list[str] = []
         self.env: dict[int, object] = {}
@@ -187,6 +199,8 @@ class _Lowering:
                 v = self.lut(a[0], *a[1:])
             elif e.op == "mtab":
                 v = self.mtab(int(a[0]), a[1], a[2])
+            elif e.op == "atab":
+                v = self.atab(int(a[0]), int(a[1]), a[2], a[3:])
             else:
                 raise NotImplementedError(f"no node for traced op {e.op!r}")
             self.env[id(e)] = v
@@ -222,14 +236,48 @@ class _Lowering:
     # and blended here (Linear reads use mipmaps in EEVEE, chosen by the screen-space derivative
     # of the coordinate, which for a coordinate computed from the view is meaningless)
     def material_pixels(self) -> np.ndarray:
-        """The material table as an RGBA image (rows bottom first): row i is view node i, texel
-        j * G + g holds columns 3 g .. 3 g + 2 at azimuth node j."""
-        n_mu, n_phi, cols = self.table.shape
-        groups = -(-cols // 3)
-        padded = np.zeros((n_mu, n_phi, groups * 3), dtype=np.float32)
-        padded[..., :cols] = self.table
-        rgb = padded.reshape(n_mu, n_phi * groups, 3)
-        return np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), dtype=np.float32)], -1)
+        """The material table and its tables over linked parameters as one RGBA image (rows
+        bottom first, ``_layout``): a table's cell j (an azimuth node, or a node of its parameter
+        axes) holds columns 3 g .. 3 g + 2 in texel ((j mod J) G + g, row0 + (j div J) n_mu + i)
+        at view node i, with G = ceil(columns / 3) groups and J cells to a band of rows."""
+        width, height, blocks = self._layout()
+        img = np.zeros((height, width, 3), dtype=np.float32)
+        tables = [self.table.reshape(self.table.shape[0], -1, self.table.shape[2])]
+        tables += [tab.data.reshape(tab.data.shape[0], -1, tab.data.shape[-1]) for tab in self.axis_tables]
+        for values, (row0, per_band, groups) in zip(tables, blocks):
+            n_mu, cells, _ = values.shape
+            rgb = _rgb_block(values).reshape(n_mu, cells, groups, 3)
+            for j in range(cells):
+                band, k = divmod(j, per_band)
+                img[row0 + band * n_mu: row0 + (band + 1) * n_mu, k * groups: (k + 1) * groups] = rgb[:, j]
+        return np.concatenate([img, np.ones(img.shape[:2] + (1,), dtype=np.float32)], -1)
+
+    def _layout(self) -> tuple[int, int, list]:
+        """The image's width and height and, for each table (the material table, then each axis
+        table), (its first row, its cells to a band of ``n_mu`` rows, its texel groups). A table
+        wider than the image wraps into bands (the material table never: its azimuth reads
+        assume one); the width is the one that gives the image the fewest texels with neither
+        side above ``TABLE_SIZE`` (the material table alone: its own width)."""
+        if self._layout_cache is None:
+            n_mu = self.table.shape[0]
+            shapes = [(self.table.shape[1], -(-self.table.shape[2] // 3))]
+            shapes += [(int(np.prod(tab.data.shape[1:-1])), -(-tab.data.shape[-1] // 3)) for tab in self.axis_tables]
+            narrowest = max(max(groups for _, groups in shapes), shapes[0][0] * shapes[0][1])  # the material table: one band
+
+            def bands(width):
+                return [-(-cells // (width // groups)) for cells, groups in shapes]
+
+            widest = min(max(cells * groups for cells, groups in shapes), TABLE_SIZE)
+            fits = [w for w in range(narrowest, widest + 1) if sum(bands(w)) * n_mu <= TABLE_SIZE]
+            if not fits:
+                raise ValueError(f"the material's tables do not fit an image of {TABLE_SIZE} x {TABLE_SIZE} texels")
+            width = min(fits, key=lambda w: (w * sum(bands(w)), w))
+            blocks, row = [], 0
+            for (cells, groups), n in zip(shapes, bands(width)):
+                blocks.append((row, width // groups, groups))
+                row += n * n_mu
+            self._layout_cache = (width, row, blocks)
+        return self._layout_cache
 
     def _mcoords(self, c, p):
         key = (c if not isinstance(c, Out) else (c.node, c.socket), p if not isinstance(p, Out) else (p.node, p.socket))
@@ -238,14 +286,14 @@ class _Lowering:
             return hit
         n_mu, n_phi, cols = self.table.shape
         groups = -(-cols // 3)
-        width = n_phi * groups
+        width, height, _ = self._layout()
         if isinstance(c, Out):
             c = Out(self.add("ShaderNodeMath", {"operation": "ADD", "use_clamp": True}, {"Value": c, "Value_001": 0.0}), "Value")
         x = self.math("MULTIPLY", c, float(n_mu - 1))
         i0 = self.math("MINIMUM", self.math("FLOOR", x), float(n_mu - 2))
         f = self.math("SUBTRACT", x, i0)
-        v0 = self.math("DIVIDE", self.math("ADD", i0, 0.5), float(n_mu))
-        v1 = self.math("ADD", v0, 1.0 / n_mu)
+        v0 = self.math("DIVIDE", self.math("ADD", i0, 0.5), float(height))
+        v1 = self.math("ADD", v0, 1.0 / height)
         if n_phi == 1:
             us, g = [0.5 / width], None
         else:
@@ -277,6 +325,64 @@ class _Lowering:
             if g is not None:
                 blended = [self._mix(blended[0], blended[1], g)]
             sep = reads[group] = self.add("ShaderNodeSeparateXYZ", {}, {"Vector": blended[0]}, ("X", "Y", "Z"))
+        return Out(sep, "XYZ"[channel])
+
+    def atab(self, k: int, col: int, c, xs):
+        """Column ``col`` of axis table ``k`` at view coordinate ``c`` and parameter coordinates
+        ``xs`` (``live_axes.lookup_axes``): for each corner of the parameters' cell, the two view
+        rows blended, then the corners blended from the last parameter axis to the first."""
+        tab = self.axis_tables[k]
+        _, vs, f, _, width, _ = self._mcoords(c, 0.0)
+        sizes = tab.data.shape[1:-1]
+        _, height, blocks = self._layout()
+        row0, per_band, groups = blocks[1 + k]
+        n_mu = self.table.shape[0]
+        banded = int(np.prod(sizes)) > per_band
+        key = ("atab", k, tuple(x if not isinstance(x, Out) else (x.node, x.socket) for x in xs),
+               c if not isinstance(c, Out) else (c.node, c.socket))
+        cells = self._coords.get(key)
+        if cells is None:
+            cells = []
+            for x, n in zip(xs, sizes):
+                if isinstance(x, Out):
+                    x = Out(self.add("ShaderNodeMath", {"operation": "ADD", "use_clamp": True},
+                                     {"Value": x, "Value_001": 0.0}), "Value")
+                y = self.math("MULTIPLY", x, float(n - 1))
+                j0 = self.math("MINIMUM", self.math("FLOOR", y), float(n - 2))
+                cells.append((j0, self.math("SUBTRACT", y, j0)))
+            cells = self._coords[key] = (cells, {})
+        cells, reads = cells
+        group, channel = divmod(col, 3)
+        sep = reads.get(group)
+        if sep is None:
+            strides = [int(np.prod(sizes[i + 1:])) for i in range(len(sizes))]
+
+            def corner(idx):  # this corner's cell: its texel column (u) and rows (v), the view rows blended
+                cell = 0.0
+                for (j0, _), d, stride in zip(cells, idx, strides):
+                    cell = self.math("ADD", cell, self.math("MULTIPLY", self.math("ADD", j0, float(d)), float(stride)))
+                if banded:
+                    band = self.math("FLOOR", self.math("DIVIDE", self.math("ADD", cell, 0.5), float(per_band)))
+                    cell = self.math("SUBTRACT", cell, self.math("MULTIPLY", band, float(per_band)))
+                    rows = self.math("DIVIDE", self.math("MULTIPLY_ADD", band, float(n_mu), float(row0)), float(height))
+                else:
+                    rows = row0 / height
+                u = self.math("DIVIDE", self.math("MULTIPLY_ADD", cell, float(groups), group + 0.5), float(width))
+                texels = []
+                for v in (self.math("ADD", v, rows) for v in vs):
+                    xyz = self.add("ShaderNodeCombineXYZ", {}, {"X": u, "Y": v, "Z": 0.0}, ("Vector",))
+                    tex = self.add("ShaderNodeTexImage", {"image": self.image, "interpolation": "Closest",
+                                                          "extension": "EXTEND"},
+                                   {"Vector": Out(xyz, "Vector")}, ("Color", "Alpha"))
+                    texels.append(Out(tex, "Color"))
+                return self._mix(texels[0], texels[1], f)
+
+            def over(idx):
+                if len(idx) == len(sizes):
+                    return corner(idx)
+                return self._mix(over(idx + (0,)), over(idx + (1,)), cells[len(idx)][1])
+
+            sep = reads[group] = self.add("ShaderNodeSeparateXYZ", {}, {"Vector": over(())}, ("X", "Y", "Z"))
         return Out(sep, "XYZ"[channel])
 
     def _mix(self, a, b, f):
@@ -326,39 +432,65 @@ _FOLD_MATH = {
 }
 
 
-TABLE_IMAGE = ".lamella_table"  # the default name of a staged plan's material-table image
+TABLE_IMAGE = ".lamella_table"
+TABLE_SIZE = 8192  # texels: the material table image's widest and tallest (GPUs take 16384; older ones 8192)
 
 
 def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
-              image: str = TABLE_IMAGE, grid=None, staged_ir=None) -> Plan:
+              image: str = TABLE_IMAGE, grid=None, staged_ir=None, live_axes="auto") -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
     anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``).
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked,
     lobes merged to ``budget`` (``staging.stage``), the table read from the image ``image``
     (``Plan.images``) on ``grid`` (``staging.ViewGrid``; default: staging's); ``staged=False``: the
     whole model as nodes. ``staged_ir``: the ``staging.Staged`` of this stack already made (the OSL
-    shader's, so a material is staged once), used instead of staging again."""
-    if staged and staged_ir is not None:
+    shader's, so a material is staged once), used instead of staging again.
+    ``live_axes``: what of the model the linked parameters reach is read from tables over (view,
+    parameters) (``staging.stage``'s ``live_axes``); "auto": none, unless the traced part is more
+    than Cycles' SVM surely holds (``live_values`` above ``SVM_UNSURE``), then up to
+    ``live_axes.MAX_AXES`` parameters per table."""
+    from .live_axes import MAX_AXES
+    from .staging import stage
+
+    if staged and staged_ir is not None and live_axes in ("auto", staged_ir.live_axes):
         st = staged_ir
+    elif staged:
+        st = stage(stack, model, live, budget, grid, live_axes=0 if live_axes == "auto" else live_axes)
+    else:
+        st = None
+    if st is not None and live_axes == "auto" and st.live and st.live_axes == 0:
+        key = st.structure_key()
+        if key not in _TOO_LARGE:
+            plan = _plan(stack, model, st, image)
+            _TOO_LARGE[key] = live_values(plan) > SVM_UNSURE
+            if len(_TOO_LARGE) > 64:
+                del _TOO_LARGE[next(iter(_TOO_LARGE))]
+            if not _TOO_LARGE[key]:
+                return plan
+        if _TOO_LARGE[key]:
+            st = stage(st.stack, st.model, st.live, budget, grid, live_axes=MAX_AXES)
+    return _plan(stack, model, st, image)
+
+
+_TOO_LARGE: dict = {}  # structure key of a staged shader -> whether its traced part is too large for SVM
+
+
+def _plan(stack, model: str, st, image: str) -> Plan:
+    """The plan of the staged shader ``st``, or of the whole model of ``stack`` (``st`` None)."""
+    if st is not None:
         stack, model_name, params = st.stack, st.model, dict(st.defaults)
+        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
     else:
         traced = trace_closures(stack, model)
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
-        if staged:
-            from .staging import stage
-
-            st = stage(traced.stack, model, live, budget, grid, traced=traced)
-    if staged:
-        t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
-    else:
-        st, t, closures, wi, frame, table = None, traced.tracer, traced.closures, traced.wi, "shading", None
+        t, closures, wi, frame, table = traced.tracer, traced.closures, traced.wi, "shading", None
     specs = [(c, c.weight, c.kind.bsdf(t, c.args, wi)) for c in closures]
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]
         exprs += [x for vec in b.vectors.values() if vec is not None for x in vec]
-    low = _Lowering(t, table, image)
+    low = _Lowering(t, table, image, st.axis_tables if st is not None else ())
     low.lower(exprs)
     bsdfs = []
     for c, color, b in specs:

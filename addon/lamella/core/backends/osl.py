@@ -113,6 +113,9 @@ class _Printer:
                     self.files.add(luts.SPECS[a[0]].file)
             elif e.op == "mtab":
                 rhs = self._mtab(int(a[0]), self.ref(a[1]), self.ref(a[2]))
+            elif e.op == "atab":
+                raise NotImplementedError("tables over linked parameters (staging's live_axes) are the node "
+                                          "group's; an OSL shader traces what its linked inputs reach")
             else:
                 rhs = f"{_FUN[e.op]}({', '.join(self.ref(x) for x in a)})"
             self.lines.append(f"    {'int' if e.op in _CMP else 'float'} {name} = {rhs};")
@@ -375,7 +378,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         rhs = {"square": f"{sk.name} * {sk.name}", "identity": sk.name, "channels": f"{sk.name}[{ch}]"}[sk.convert]
         body.append(f"    float {_identifier(k)} = {rhs};")
     if table is not None and any(e.op == "mtab" for e in t.nodes):
-        values = ", ".join(_float32_literal(x) for x in table.reshape(-1))
+        values = ", ".join(_float32_literals(table))
         body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
                  + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
                  f"    float MT[{table.size}] = {{{values}}};"]
@@ -417,6 +420,15 @@ def _socket_param(sk) -> ShaderParam:
     if sk.kind == "color":
         return ShaderParam(_identifier(sk.name), "color", f"color({', '.join(_literal(v) for v in sk.value)})")
     return ShaderParam(_identifier(sk.name), "float", _literal(sk.value))
+
+
+def _float32_literals(values) -> list[str]:
+    """The shortest literals that read back as the float32 ``values`` (an array of finite
+    numbers), in order: numpy's own float32 repr, vectorised (a value edit prints the material
+    table again; one call per value cost several milliseconds)."""
+    import numpy as np
+
+    return np.asarray(values, dtype=np.float32).reshape(-1).astype(str).tolist()
 
 
 def _float32_literal(x) -> str:

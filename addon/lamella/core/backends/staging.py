@@ -34,7 +34,7 @@ read that, never printed text.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -42,6 +42,7 @@ from .. import luts
 from ..stack import Stack
 from . import lobe_budget
 from .closures import Closure, trace_closures
+from .live_axes import axis_nodes, axis_of, lookup_axes
 from .numpy_ops import NumpyOps
 from .sockets import params_of, socket_names, sockets
 from .trace import Expr, Tracer
@@ -117,6 +118,20 @@ def lookup(table: np.ndarray, col: int, c, p, dtype=np.float32):
 
 
 # ---------------------------------------------------------------- the result
+@dataclass(frozen=True)
+class AxisTable:
+    """Values of the model over the view and linked parameters: ``data`` (n_mu, n_1, ...,
+    n_k, columns) float32 on the view grid's elevation nodes times the nodes of ``axes``
+    (``live_axes.LiveAxis``), read by ``atab`` (``live_axes.lookup_axes``)."""
+
+    axes: tuple
+    data: np.ndarray
+
+    @property
+    def params(self) -> tuple:
+        return tuple(a.param for a in self.axes)
+
+
 @dataclass
 class Staged:
     """A material's staged shader: ``tracer`` holds the staged graph (inputs ``wi_x``, ``wi_y``,
@@ -142,6 +157,10 @@ class Staged:
     coords: tuple = ()
     interface: tuple = ()  # every parameter of the model: the shader's sockets, live or baked
     defaults: dict = field(default_factory=dict)  # every parameter's value (the stack's)
+    axis_tables: tuple = ()  # ``AxisTable``s: values over (view, linked parameters) (``atab`` reads)
+    live_axes: int = 0  # the most linked parameters a tabulated value may depend on (``stage``)
+
+    traced_params: tuple = ()  # the live parameters some traced arithmetic of the model reads
 
     @property
     def live_sockets(self) -> tuple:
@@ -162,7 +181,8 @@ class Staged:
         t = self.tracer
         outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
-        parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface)]
+        parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface),
+                 *(f"{tab.params}{tab.data.shape}" for tab in self.axis_tables)]
         for k, e in enumerate(t.live_nodes(outs)):
             names[id(e)] = k
             parts.append(e.op + "(" + ",".join(
@@ -175,12 +195,16 @@ class Staged:
 class StagedOps(NumpyOps):
     """``NumpyOps`` that can read the material table (``mtab``) of a staged graph."""
 
-    def __init__(self, table: np.ndarray, dtype=np.float32):
+    def __init__(self, table: np.ndarray, dtype=np.float32, axis_tables=()):
         super().__init__(dtype)
         self.table = table
+        self.axis_tables = axis_tables
 
     def mtab(self, col, c, p):
         return lookup(self.table, int(col), c, p, self.dtype)
+
+    def atab(self, k, col, c, *xs):
+        return lookup_axes(self.axis_tables[int(k)].data, int(col), c, xs, self.dtype)
 
 
 def isotropic(stack: Stack) -> bool:
@@ -221,12 +245,16 @@ class _Columns:
 
 
 def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None,
-          traced=None) -> Staged:
+          traced=None, live_axes: int = 0) -> Staged:
     """Stage ``stack`` (a Stack, dict or JSON) under ``model`` for a material whose parameters in
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
     ``grid``: the view grid (default: ``N_MU`` nodes, times ``N_PHI`` azimuths where the stack is
-    anisotropic and what its table holds varies with the azimuth, ``_azimuth_free``)."""
+    anisotropic and what its table holds varies with the azimuth, ``_azimuth_free``).
+    ``live_axes``: a value that depends on the view and on at most this many live parameters (each
+    with an axis, ``live_axes.axis_of``) is baked on a table over (view, those parameters) instead
+    of staying traced (0: every value a live parameter reaches stays traced). Only for a table with
+    one azimuth node; otherwise the live part stays traced."""
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
     if traced is None or traced.stack != stack:
@@ -242,6 +270,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     if grid is not None and frame == "view" and grid.n_phi != 1:
         raise ValueError("a stack staged in the view frame has one azimuth node")
     live_ids = t.reached_by(live)
+    axes = {p: ax for p in live if live_axes > 0 and (ax := axis_of(stack, p, defaults[p])) is not None}
+    traced_ids = _traced_part(t, live, axes, live_axes) if axes else live_ids
 
     def live_expr(x):
         return isinstance(x, Expr) and id(x) in live_ids
@@ -256,9 +286,9 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     def boundary_of(outs):
         found = []
         for e in t.live_nodes(outs):
-            if id(e) in live_ids:
-                found += [a for a in e.args if isinstance(a, Expr) and id(a) not in live_ids]
-        found += [x for x in outs if isinstance(x, Expr) and id(x) not in live_ids]
+            if id(e) in traced_ids:
+                found += [a for a in e.args if isinstance(a, Expr) and id(a) not in traced_ids]
+        found += [x for x in outs if isinstance(x, Expr) and id(x) not in traced_ids]
         return list({id(e): e for e in found if e.op != "input"}.values())
 
     # a live lobe that merges reads its energy too (``_merged_live_closure``)
@@ -277,6 +307,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         on_grid = _azimuth_free(t, grid, [*baked, *boundary])
         turn = on_grid is not None
         if on_grid is None:
+            if axes:  # tables over (view, parameters) are made on one azimuth node
+                return stage(stack, model, live, budget, None, traced, 0)
             grid = ViewGrid(N_MU, N_PHI)
             on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
     dirs = grid.directions().reshape(-1, 3)
@@ -286,7 +318,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     samples = [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c)) for c in fixed]
     samples += [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c), live=True) for c in moving]
     views = lobe_budget.check_views(dirs, turn)
-    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views)
+    groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views,
+                               cap=lobe_budget.MAX_CLOSURES if not axes else max(len(samples), lobe_budget.MAX_CLOSURES))
     live_groups = [g for g in groups if g.lobe.live]
     moving_outs = [x for g in live_groups for m in g.members for x in (
         *(traced.closures[m.index].lobe.weight if len(g.members) > 1 else ()),
@@ -316,19 +349,40 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
     boundary = boundary_of(moving_outs)
+    on_axes: dict[tuple, list] = {}  # boundary values a live parameter reaches, by their parameters
     for e, v in zip(boundary, on_grid(boundary)):
-        env[id(e)] = read(v, ("expr", id(e)), id(e) not in reaches_param)
+        if id(e) in live_ids:
+            on_axes.setdefault(tuple(p for p in live if id(e) in t.reached_by([p])), []).append(e)
+        else:
+            env[id(e)] = read(v, ("expr", id(e)), id(e) not in reaches_param)
     for name, x in zip(VIEW_INPUTS, wi2):
         if name in t.inputs:
             env[id(t.inputs[name])] = x
     t2.set_scope("live")
+    axis_tables = []
+    coord_of: dict[str, object] = {}
+    tables = {params: [replace(axes[p], n=axis_nodes(axes[p], len(params))) for p in params] for params in on_axes}
+    data = _axis_tables(t, grid, tables, on_axes)
+    for params, exprs in on_axes.items():
+        for p in params:
+            if p not in coord_of:
+                coord_of[p] = axes[p].coord(t2, t2.param(p, t.defaults[p]))
+        k = len(axis_tables)
+        axis_tables.append(AxisTable(tuple(tables[params]), data[params]))
+        t2.set_scope("table")
+        for col, e in enumerate(exprs):
+            env[id(e)] = t2.node("atab", str(k), str(col), cc, *(coord_of[p] for p in params))
+        t2.set_scope("live")
 
     def rebuild(x):
         return env[id(x)] if isinstance(x, Expr) else x
 
-    for e in t.live_nodes(moving_outs):
-        if id(e) in env or id(e) not in live_ids:
+    traced_params: set[str] = set()
+    for e in t.live_nodes(moving_outs, known=env):
+        if id(e) in env or id(e) not in traced_ids:
             continue
+        if e.op != "param":
+            traced_params.update(p for p in live if id(e) in t.reached_by([p]))
         a = [a if isinstance(a, str) else rebuild(a) for a in e.args]
         if e.op == "param":
             env[id(e)] = t2.param(a[0], t.defaults[a[0]])
@@ -348,8 +402,85 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
             closures.append(_merged_live_closure(t2, wi2, members, rebuild, grp.lobe.label))
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
-                tuple(sorted(t.params)), defaults)
+                tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
+                tuple(sorted(traced_params)))
     return st
+
+
+def _traced_part(t: Tracer, live, axes: dict, max_axes: int) -> frozenset[int]:
+    """The ids of the nodes that stay traced when values that depend on the view and on at most
+    ``max_axes`` live parameters, each with an axis in ``axes``, are read from tables: every node a
+    live parameter reaches except those. A node the view does not reach stays traced (the
+    parameters' own conversions, such as alpha from r: a table would only approximate them)."""
+    reach = {p: t.reached_by([p]) for p in live}
+    view = _reached_by_view(t)
+    out = set()
+    for e in t.nodes:
+        i = id(e)
+        if not any(i in r for r in reach.values()):
+            continue
+        deps = [p for p in live if i in reach[p]]
+        if e.op == "param" or i not in view or len(deps) > max_axes or any(p not in axes for p in deps):
+            out.add(i)
+    return frozenset(out)
+
+
+def _reached_by_view(t: Tracer) -> frozenset[int]:
+    """The ids of the nodes the view direction (``VIEW_INPUTS``) reaches."""
+    def build():
+        out: set[int] = set()
+        for e in t.nodes:
+            if (e.op == "input" and e.args[0] in VIEW_INPUTS) or any(
+                    a.__class__ is Expr and id(a) in out for a in e.args):
+                out.add(id(e))
+        return frozenset(out)
+
+    return t.memo(("reached_by_view",), build)
+
+
+def _axis_tables(t: Tracer, grid: ViewGrid, tables: dict, exprs_of: dict) -> dict:
+    """For each parameter tuple of ``tables`` (its ``LiveAxis`` list), the values of
+    ``exprs_of[params]`` (nodes of ``t`` that no other live parameter reaches) on the view grid's
+    elevation nodes (azimuth 0) times the axes' nodes: (n_mu, n_1, ..., n_k, columns) float32.
+    Tables whose axes have the same sizes and differ only in parameters no other table reads
+    (a colour's three channels over the same roughness axes) are evaluated in one pass, each
+    parameter set to its own axis at the same mesh positions: a value depends on its table's
+    parameters alone, and the parts they share are computed once. The view and each axis are
+    arrays along their own dimension of the table, so numpy evaluates a node on the dimensions
+    of what it depends on alone (broadcasting): most of the model depends on the view and one
+    or two parameters, and costs that, not the whole table."""
+    count: dict[str, int] = {}
+    for params in tables:
+        for p in params:
+            count[p] = count.get(p, 0) + 1
+    passes: dict[tuple, list] = {}
+    for params, axes in tables.items():
+        key = tuple((a.n, a.param if count[a.param] > 1 else None) for a in axes)
+        passes.setdefault(key, []).append(params)
+    dirs = grid.directions()[:, 0, :]  # (n_mu, 3)
+    out = {}
+    for key, members in passes.items():
+        shape = (grid.n_mu, *(n for n, _ in key))
+
+        def along(values, dim):  # ``values`` along dimension ``dim`` of the table
+            return np.reshape(values, tuple(-1 if d == dim else 1 for d in range(len(shape))))
+
+        values = dict(t.defaults)
+        for k, n in enumerate(VIEW_INPUTS):
+            values[n] = along(dirs[:, k], 0)
+        for params in members:
+            for dim, a in enumerate(tables[params], 1):
+                values[a.param] = along(a.values(), dim)
+        exprs = [e for params in members for e in exprs_of[params]]
+        with np.errstate(all="ignore"):
+            got = t.evaluate(exprs, NumpyOps(np.float64), values)
+        got = iter(np.broadcast_to(np.asarray(v, dtype=np.float64), shape) for v in got)
+        for params in members:
+            data = np.stack([next(got) for _ in exprs_of[params]], -1)
+            if not np.all(np.isfinite(data)):
+                raise FloatingPointError("the model is not finite on the table of its linked parameters")
+            out[params] = data.astype(np.float32)
+    return out
 
 
 PROBE_AZIMUTHS = (0.0, 1.0, 2.6)  # radians: phi = 0 and two angles no symmetry of a layer maps to it
@@ -414,18 +545,36 @@ def _same_value(a, b) -> bool:
 def _azimuth_free(t: Tracer, grid: ViewGrid, outputs):
     """``on_grid`` over ``grid`` (one azimuth node, phi = 0) if no value in ``outputs`` depends on
     the view's azimuth, else None. The values are evaluated at ``PROBE_AZIMUTHS`` and must agree in
-    float32 (what the table stores) at every elevation node."""
+    float32 (what the table stores) at every elevation node. Whether they do follows from the
+    model's form (lobes whose axes are fixed in the shading frame, normalisers of the elevation
+    alone), not from the parameters' values: the answer is kept for the graph (``Tracer.memo``),
+    and a value edit evaluates the one azimuth only."""
     base = grid.directions()[:, 0, :]  # (n_mu, 3) at phi = 0
     k = len(PROBE_AZIMUTHS)
     c, s = np.cos(PROBE_AZIMUTHS), np.sin(PROBE_AZIMUTHS)
     dirs = np.stack([base[:, None, 0] * c[None, :], base[:, None, 0] * s[None, :],
                      np.broadcast_to(base[:, None, 2], (base.shape[0], k))], -1).reshape(-1, 3)
-    probe = grid_values(t, dirs, outputs)
-    for v in probe(outputs):
-        v32 = v.astype(np.float32).reshape(-1, k)
-        if not np.array_equal(v32, np.broadcast_to(v32[:, :1], v32.shape)):
-            return None
-    return grid_values(t, dirs, (), select=lambda v: v.reshape(-1, k)[:, 0])
+    probed = []
+
+    def free() -> bool:
+        probed.append(grid_values(t, dirs, outputs))
+        for v in probed[0](outputs):
+            v32 = v.astype(np.float32).reshape(-1, k)
+            if not np.array_equal(v32, np.broadcast_to(v32[:, :1], v32.shape)):
+                return False
+        return True
+
+    if not t.memo(("azimuth_free", tuple(map(id, outputs))), free):
+        return None
+    if probed:  # evaluated just now at the probe's azimuths: keep the first (phi = 0, the same
+        # inputs as ``base`` bit for bit), so the next value edit re-evaluates only what it reaches
+        last = _EVALUATED
+        if last.get("memo") is t._memo and last.get("dirs") is not None and last["dirs"].shape == dirs.shape:
+            n = dirs.shape[0]
+            last["env"] = {i: (v.reshape(-1, k)[:, 0] if isinstance(v, np.ndarray) and v.shape[:1] == (n,) else v)
+                           for i, v in last["env"].items()}
+            last["dirs"] = base.copy()
+    return grid_values(t, base, outputs)
 
 
 def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column, dirs, reaches_param) -> Closure:
@@ -527,7 +676,7 @@ def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = 
     wi = np.broadcast_to(wi, wo.shape)
     if st.frame == "view":
         wi, wo = to_view_frame(wi, wo)
-    ops = StagedOps(st.table, dtype)
+    ops = StagedOps(st.table, dtype, st.axis_tables)
     dtype = ops.dtype.type
     vals = {n: wi[:, k].astype(dtype) for k, n in enumerate(VIEW_INPUTS)}
     vals.update(st.params)

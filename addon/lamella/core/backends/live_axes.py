@@ -1,0 +1,159 @@
+"""Table axes for linked parameters: how a node group reads a textured stack (docs/staging.md).
+
+Staging bakes what depends on the view alone into the material table and keeps what a linked
+parameter reaches traced. For a large stack that traced part is large (eight coats with media and
+textures on two coat roughnesses and the base colour: some 14 000 nodes), and Cycles without OSL
+(SVM) holds a shader's live values in a stack of 255 floats that such a part overflows: the
+material renders black. With table axes, a value that depends on the view and on at most
+``MAX_AXES`` linked parameters is baked too, on a table over (view, those parameters), and read
+back by multilinear interpolation; only what depends on more linked parameters at once stays
+traced.
+
+An axis spans the field's slider range (``Field.soft``), widened to hold the stack's own value;
+a texture value outside it is clamped to it. The nodes are evenly spaced in a coordinate that
+crowds them where the model moves fastest: for a range the field's hard limits close at both
+ends (a roughness alpha in [0, 1], a diffuse albedo), (2 / pi) asin(sqrt(u)) of the position u in
+the range, quadratic toward both ends (near 0 it is Blender's r = sqrt(alpha); near alpha = 1
+the spreads a coat adds to the layers below grow without bound); for other fields that cannot
+be negative (a thickness, an absorption, an index) sqrt(u), crowding toward the low end where
+exponentials and Fresnel terms move fastest; linear otherwise. Angles get no axis (a linked
+rotation stays traced).
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..layers.schema import ANGLE, RGB, ROUGHNESS
+from ..stack import Stack
+
+N_AXIS = 17  # nodes along a parameter axis (bench/staging.md, "Linked parameters": error and size)
+N_AXIS_WIDE = 9  # along an axis other than a roughness's or an albedo's in a table over three parameters
+MAX_AXES = 3  # linked parameters a tabulated value may depend on: tables over (view, p, q, s)
+
+
+@dataclass(frozen=True)
+class LiveAxis:
+    """The table axis of parameter ``param`` (model units: GGX alpha, not r): ``n`` nodes over
+    [``lo``, ``hi``], evenly spaced in the coordinate ``warp`` of u = (v - lo) / (hi - lo):
+    "sqrt": sqrt(u); "sine": (2 / pi) asin(sqrt(u)), which crowds the nodes toward both ends
+    (quadratically, like sqrt at the low end); "linear": u."""
+
+    param: str
+    lo: float
+    hi: float
+    n: int = N_AXIS
+    warp: str = "sqrt"
+
+    def values(self) -> np.ndarray:
+        """The parameter's value at each node (float64, (n,))."""
+        x = np.linspace(0.0, 1.0, self.n)
+        u = {"sqrt": x * x, "sine": np.sin(0.5 * np.pi * x) ** 2, "linear": x}[self.warp]
+        return self.lo + (self.hi - self.lo) * u
+
+    def coord(self, ops, v):
+        """The table coordinate in [0, 1] of parameter value ``v`` (backend values): clamped to
+        the axis's range."""
+        u = ops.clamp((v - self.lo) * (1.0 / (self.hi - self.lo)), 0.0, 1.0)
+        if self.warp == "sine":
+            return ops.atan2(ops.sqrt(u), ops.sqrt(1.0 - u)) * (2.0 / math.pi)
+        return ops.sqrt(u) if self.warp == "sqrt" else u
+
+
+_LAYER = re.compile(r"^(coat(\d+)|base)_(.+)$")
+
+
+def axis_nodes(axis: LiveAxis, dims: int) -> int:
+    """The nodes of ``axis`` in a table over ``dims`` parameters: ``N_AXIS``, but
+    ``N_AXIS_WIDE`` along an index or a colour (eta, k: the model is smooth in them) in a table
+    over three (its size is the product)."""
+    return N_AXIS_WIDE if dims >= 3 and axis.warp != "sine" else N_AXIS
+
+
+def field_of(stack: Stack, param: str):
+    """The schema field (``layers.schema.Field``) that model parameter ``param`` comes from
+    (``coat1_alpha_x`` -> coat 1's roughness, ``base_eta_g`` -> the base's eta), or None."""
+    m = _LAYER.match(param)
+    if m is None:
+        return None
+    layer = stack.base if m.group(1) == "base" else stack.coats[int(m.group(2))]
+    rest = m.group(3)
+    for f in layer.kind.fields:
+        if f.type == ROUGHNESS and rest in ("alpha", "alpha_x", "alpha_y"):
+            return f
+        if f.type == RGB and rest in (f"{f.name}_r", f"{f.name}_g", f"{f.name}_b"):
+            return f
+        if f.type not in (ROUGHNESS, RGB) and rest == f.name:
+            return f
+    return None
+
+
+def axis_of(stack: Stack, param: str, value: float, n: int | None = None) -> LiveAxis | None:
+    """The axis of ``param`` for ``stack`` (its value ``value``), or None where the parameter gets
+    none (an angle, or a parameter no field describes)."""
+    f = field_of(stack, param)
+    if f is None or f.type == ANGLE:
+        return None
+    lo, hi = f.soft if f.soft is not None else (f.lo, f.hi)
+    lo, hi = min(lo, value), max(hi, value)
+    lo, hi = max(lo, f.lo), min(hi, f.hi)
+    if not hi > lo or not math.isfinite(hi - lo):
+        return None
+    if (lo, hi) == (f.lo, f.hi):  # a range the model's limits close at both ends (a roughness, an albedo)
+        warp = "sine"
+    else:
+        warp = "sqrt" if f.lo >= 0.0 else "linear"
+    return LiveAxis(param, float(lo), float(hi), n or N_AXIS, warp)
+
+
+def socket_ranges(axis_tables, params: dict) -> dict:
+    """The range each linked socket's tables span, in the socket's units (a roughness as r =
+    sqrt(alpha), ``sockets``): socket name -> (lo, hi), over every axis of ``axis_tables`` that
+    reads one of its parameters (a colour: the widest of its channels')."""
+    from .sockets import by_param
+
+    conv = by_param(params)
+    out: dict = {}
+    for tab in axis_tables:
+        for a in tab.axes:
+            sk, _ = conv[a.param]
+            lo, hi = (math.sqrt(a.lo), math.sqrt(a.hi)) if sk.convert == "square" else (a.lo, a.hi)
+            old = out.get(sk.name, (lo, hi))
+            out[sk.name] = (min(old[0], lo), max(old[1], hi))
+    return dict(sorted(out.items()))
+
+
+def lookup_axes(data: np.ndarray, col: int, c, xs, dtype=np.float32):
+    """Column ``col`` of an axis table ``data`` (n_mu, n_1, ..., n_k, columns) at view coordinate
+    ``c`` and axis coordinates ``xs`` (k of them, each in [0, 1]): linear along every axis,
+    clamped; exactly the arithmetic the emitters print (the view axis blended first, then the
+    parameter axes from the last to the first)."""
+    dtype = np.dtype(dtype).type
+    sizes = data.shape[:-1]
+
+    def cell(x, n):
+        x = np.clip(np.asarray(x, dtype=dtype), 0.0, 1.0) * dtype(n - 1)
+        i0 = np.minimum(np.floor(x), n - 2).astype(np.int64)
+        return i0, (x - i0).astype(dtype)
+
+    cells = [cell(c, sizes[0])] + [cell(x, n) for x, n in zip(xs, sizes[1:])]
+    t = data[..., col].astype(dtype)
+
+    # the view axis innermost (as the node group blends it): recurse over the parameter axes first
+    def over_params(idx: tuple):
+        k = len(idx)
+        if k == len(sizes) - 1:
+            i0, f = cells[0]
+            a, b = t[(i0,) + idx], t[(i0 + 1,) + idx]
+            return (a + (b - a) * f).astype(dtype)
+        i0, f = cells[k + 1]
+        a, b = over_params(idx + (i0,)), over_params(idx + (i0 + 1,))
+        return (a + (b - a) * f).astype(dtype)
+
+    return over_params(())
+
+
+__all__ = ["LiveAxis", "axis_nodes", "field_of", "axis_of", "socket_ranges", "lookup_axes", "N_AXIS", "N_AXIS_WIDE", "MAX_AXES"]

@@ -1,0 +1,91 @@
+"""Tables over linked parameters (``live_axes``): the node group's form of a textured stack whose
+traced part is too large for Cycles' SVM.
+
+- an axis per linked parameter, from the layer schema (roughness and albedo crowd both ends,
+  other non-negative fields the low end, angles get none), widened to the stack's own value;
+- the staged shader with tables follows the linked parameters as the model does: relative L1
+  against the model at random linked values (bench/linked_tables.md);
+- the node plan reads the tables (banded when wide) exactly as numpy does;
+- ``emit_plan`` picks the tables only where the traced part is too large."""
+import numpy as np
+import pytest
+
+from lamella.bench.linked_tables import rows as rows_of
+from lamella.bench.node_cost import textured_sockets
+from lamella.bench.recompile import STACKS
+from lamella.bench.recompile import _stack as _case_stack
+from lamella.core.backends import staging
+from lamella.core.backends.live_axes import MAX_AXES, axis_of, lookup_axes
+from lamella.core.backends.node_graph import emit_plan, evaluate_plan
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.backends.staging import StagedOps
+
+
+def _stack(label):
+    return _case_stack(label, dict(STACKS)[label])
+
+
+def test_axes_come_from_the_schema():
+    stack = _stack("4 coats + medium")
+    rough = axis_of(stack, "coat1_alpha_x", 0.3)
+    assert (rough.lo, rough.hi, rough.warp) == (0.0, 1.0, "sine")
+    eta = axis_of(stack, "base_eta_g", 0.374)
+    assert (eta.lo, eta.hi, eta.warp) == (0.01, 5.0, "sqrt")
+    assert axis_of(stack, "base_eta_g", 7.5).hi == 7.5  # widened to hold the stack's own value
+    assert axis_of(stack, "coat0_g", 0.0).warp == "linear"
+    assert axis_of(stack, "coat1_rotation", 0.3) is None
+    for axis in (rough, eta):
+        x = axis.values()
+        assert x[0] == axis.lo and np.isclose(x[-1], axis.hi) and np.all(np.diff(x) > 0)
+        coords = axis.coord(NumpyOps(np.float64), x)  # the nodes sit at evenly spaced coordinates
+        assert np.allclose(coords, np.linspace(0.0, 1.0, axis.n), atol=1e-12)
+
+
+def test_lookup_is_exact_at_the_nodes_and_linear_between():
+    rng = np.random.default_rng(0)
+    data = rng.normal(size=(5, 4, 3, 2)).astype(np.float32)
+    c, x, y = np.meshgrid(np.linspace(0, 1, 5), np.linspace(0, 1, 4), np.linspace(0, 1, 3), indexing="ij")
+    assert np.allclose(lookup_axes(data, 1, c, (x, y), np.float64), data[..., 1])
+    mid = lookup_axes(data, 0, 0.125, (0.0, 0.0), np.float64)
+    assert np.isclose(mid, 0.5 * (data[0, 0, 0, 0] + data[1, 0, 0, 0]))
+
+
+@pytest.mark.parametrize("label,median,largest", [("1 coat", 0.01, 0.02), ("4 coats + medium", 0.01, 0.15)])
+def test_the_tables_follow_the_linked_parameters_like_the_model(label, median, largest):
+    """bench/linked_tables.md's draws: medians 0.3-0.5 %; the largest, 1.1 % for one coat and
+    12 % for four coats with a medium, are narrow lobes (a coat roughness near r = 0.1 under a
+    rougher coat)."""
+    [row] = rows_of([label])
+    assert row["tables_median"] < median and row["tables_max"] < largest, row
+
+
+def test_the_node_plan_reads_the_tables_as_numpy_does():
+    """Eight coats with media: its tables wrap into bands of the image; every closure input of
+    the plan equals the staged graph run by numpy (float32) at linked values off the nodes."""
+    stack = _stack("8 coats + media")
+    plan = emit_plan(stack, live=textured_sockets(stack), live_axes=MAX_AXES)
+    st = plan.staged
+    image = next(iter(plan.images.values()))
+    assert max(image.shape[:2]) <= 8192
+    theta, phi = np.meshgrid(np.radians(np.linspace(0.0, 85.0, 12)), np.radians(np.linspace(0.0, 330.0, 6)))
+    values = {"wi_x": np.sin(theta) * np.cos(phi), "wi_y": np.sin(theta) * np.sin(phi), "wi_z": np.cos(theta)}
+    values.update(plan.params)
+    rng = np.random.default_rng(2)
+    for p in st.live:  # a texture: another value at every shading point
+        values[p] = rng.uniform(0.02, 0.9, theta.shape).astype(np.float32)
+    tracer, exprs, refs = plan.traced
+    want = tracer.evaluate(exprs, StagedOps(st.table, np.float32, st.axis_tables), values)
+    got = evaluate_plan(plan, values, np.float32)
+    for w, r in zip(want, refs):
+        w = np.asarray(w, np.float64)
+        assert np.abs(np.asarray(got(r), np.float64) - w).max() <= 1e-5 * max(np.abs(w).max(), 1.0)
+
+
+def test_the_node_group_uses_tables_only_where_its_traced_part_is_too_large():
+    small = _stack("1 coat")
+    assert emit_plan(small, live=textured_sockets(small)).staged.live_axes == 0
+    big = _stack("4 coats + medium")
+    plan = emit_plan(big, live=textured_sockets(big))
+    assert plan.staged.live_axes == MAX_AXES and len(plan.bsdfs) == plan.staged.lobes_all
+    # OSL has no such stack: its staging traces what the linked inputs reach
+    assert staging.stage(big, live=textured_sockets(big)).axis_tables == ()
