@@ -95,6 +95,7 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
                "image": list(image.shape[:2]), "image_mb": image.nbytes / 2**20,
                "nodes_tables": len(tab_plan.nodes), "nodes_traced": len(emit_plan(stack, live=sockets, live_axes=0).nodes),
                "live_values_tables": live_values(tab_plan), "picked": plan.staged.live_axes > 0,
+               "still_traced": list(tab.traced_params),
                **{f"{k}_median": float(np.median(v)) for k, v in errors.items()},
                **{f"{k}_max": float(np.max(v)) for k, v in errors.items()}}
         progress(f"{label}: tables {row['tables_median']:.4f} / {row['tables_max']:.4f}, "
@@ -116,16 +117,18 @@ def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
         f"the OSL shader does. Relative L1 against the model at the same linked values, worst of "
         f"{', '.join(f'{a:g}' for a in ANGLES)} degrees, median and largest over {DRAWS} random draws "
         "(roughness r in [0.1, 0.95], base eta channels in [0.05, 2]). *Picked*: whether `emit_plan` uses the "
-        "tables for this stack (its traced part is above what SVM surely holds). Image: the material table "
-        "image (rows x texels, RGBA float).",
+        "tables for this stack (its traced part is above what SVM surely holds). *Still traced*: the linked "
+        "parameters some arithmetic outside the tables reads (values that depend on more of them at once). "
+        "Image: the material table image (rows x texels, RGBA float).",
         "",
-        "| stack | tables: median | tables: max | traced: median | traced: max | staging s | tables (params: shape) | image | MB | plan nodes, tables / traced | live values | picked |",
-        "|---|---:|---:|---:|---:|---:|---|---|---:|---|---:|---|",
+        "| stack | tables: median | tables: max | traced: median | traced: max | staging s | tables (params: shape) | still traced | image | MB | plan nodes, tables / traced | live values | picked |",
+        "|---|---:|---:|---:|---:|---:|---|---|---|---:|---|---:|---|",
     ]
     for r in data:
         tabs = "; ".join(f"{'+'.join(p)}: {'x'.join(map(str, s[:-1]))}x{s[-1]}" for p, s in r["tables"])
         md.append(f"| {r['stack']} | {r['tables_median']:.4f} | {r['tables_max']:.4f} | {r['traced_median']:.4f} | "
-                  f"{r['traced_max']:.4f} | {r['stage_s']:.2f} | {tabs} | {r['image'][0]} x {r['image'][1]} | "
+                  f"{r['traced_max']:.4f} | {r['stage_s']:.2f} | {tabs} | {', '.join(r['still_traced']) or 'nothing'} | "
+                  f"{r['image'][0]} x {r['image'][1]} | "
                   f"{r['image_mb']:.1f} | {r['nodes_tables']} / {r['nodes_traced']} | {r['live_values_tables']} | "
                   f"{'yes' if r['picked'] else 'no'} |")
     md += ["", "The largest errors are narrow lobes: a coat roughness r near 0.1 under a rougher coat, whose lobe "

@@ -134,7 +134,10 @@ def set_socket(sock, value) -> None:
 
 
 def _stored(value):
-    """``value`` as a socket stores it (float32, a colour as a tuple)."""
+    """``value`` as a socket stores it (a number in float32, a colour or vector as a tuple, a
+    string as it is)."""
+    if isinstance(value, str):
+        return value
     if isinstance(value, (int, float)):
         return struct.unpack("f", struct.pack("f", value))[0]
     return tuple(_stored(v) for v in value)

@@ -159,7 +159,6 @@ class Staged:
     defaults: dict = field(default_factory=dict)  # every parameter's value (the stack's)
     axis_tables: tuple = ()  # ``AxisTable``s: values over (view, linked parameters) (``atab`` reads)
     live_axes: int = 0  # the most linked parameters a tabulated value may depend on (``stage``)
-
     traced_params: tuple = ()  # the live parameters some traced arithmetic of the model reads
 
     @property
