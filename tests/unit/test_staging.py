@@ -224,3 +224,21 @@ def test_live_lobes_merge_as_far_as_the_closure_cap_requires_and_follow_their_in
         assert np.abs(got - want).sum() / np.abs(want).sum() < 0.01, theta
     few = staging.stage(suite.example("four_coats"), live=["coat0_roughness_x", "coat1_roughness", "base_eta"])
     assert few.lobes_all == len(few.closures)
+
+
+def test_a_kept_grouping_is_the_merge_of_the_same_lobes_and_is_dropped_where_it_does_not_fit():
+    """``stage(partition=...)``, what a dragged slider's edits use: the same grouping merged at
+    the lobes' new values, equal to the automatic budget's shader where that grouping is what the
+    budget picks; a grouping that does not fit the stack's lobes is ignored."""
+    stack = suite.load("green_scatter_d6")
+    st = staging.stage(stack)
+    kept = staging.stage(stack, partition=st.merged)
+    assert kept.merged == st.merged and kept.structure_key() == st.structure_key()
+    np.testing.assert_array_equal(kept.table, st.table)
+    d = stack.to_dict()
+    d["layers"][0]["roughness"] = 0.015625
+    other = staging.stage(Stack.from_dict(d)).merged
+    assert other != st.merged
+    assert staging.stage(stack, partition=other).merged == other  # kept, though the budget would regroup
+    for wrong in ([[0, 1]], [[0, 0, 1, 2, 3, 4, 5]], [[i] for i in range(st.lobes_all + 1)]):
+        assert staging.stage(stack, partition=wrong).merged == st.merged

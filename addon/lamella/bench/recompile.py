@@ -71,12 +71,15 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         for k in range(REPEATS):
             mat.lamella.coats[0].coat.roughness = 0.1 + 0.01 * k  # a value edit: a new shader each time
             t0 = time.perf_counter()
-            recompile.flush(defer_inspector=True)  # what the edit timer runs: the material first
+            recompile.flush(defer_inspector=True, drag=True)  # what the edit timer runs: the material first
             value.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             recompile.flush()  # then, a tick later, the lobe inspector
             inspect.append(time.perf_counter() - t0)
             lines = len(mat.node_tree.nodes["Lamella Shader"].script.as_string().splitlines())
+        t0 = time.perf_counter()
+        recompile.settle()  # the drag over: its lobes merged anew
+        settled = time.perf_counter() - t0
         full = len(mat.lamella.coats) == MAX_COATS  # make room for the duplicate first
         mat.lamella.active_index = len(mat.lamella.coats) - 1  # the bottom coat: the medium on top stays
         structure = {}
@@ -103,7 +106,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         emit_osl(stack)
         trace = time.perf_counter() - t0
         rows.append((label, len(stack.coats), mat.lamella.picked_model, lines, trace, statistics.median(value),
-                     max(value), statistics.median(inspect), structure["eevee"], structure["cycles-osl"]))
+                     max(value), settled, statistics.median(inspect), structure["eevee"], structure["cycles-osl"]))
     md = [
         "# Edit-to-updated-material latency",
         "",
@@ -111,8 +114,10 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         f"edit*: {REPEATS} edits of the top coat's roughness in a row (a slider dragged), each followed by the flush the "
         "edit timer runs: the stage (the model re-evaluated on the view grid only where the changed value reaches it, "
         "as compiled straight-line code from the second edit of the same value on; the table re-baked, the lobes "
-        "merged again), the shader with its new table compiled, the node group's table image and sockets set (its "
-        "nodes stay); median and slowest. *Lobe inspector*: the panel's lobe table and BRDF slice, refreshed a tick "
+        "merged again in the grouping of the drag's first edit), the shader with its new table compiled, the node "
+        "group's table image and sockets set (its nodes stay); median and slowest. *Settle*: once the edits pause, "
+        f"the material compiled again with its lobes merged anew by the lobe budget ({recompile.SETTLE_DELAY * 1e3:.0f} ms "
+        "after the last edit, or before a render or save). *Lobe inspector*: the panel's lobe table and BRDF slice, refreshed a tick "
         "after the material. *Trace*: tracing and staging a stack of the structure from scratch. *Structure edit*: "
         "duplicating a coat through the operator and removing it again (the first duplicate traces a new structure, "
         "later ones reuse the traces of both structures), in a scene that renders the node group (EEVEE: the OSL shader and the "
@@ -121,12 +126,13 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         "without edits, a render or a save). An artist waits the debounce interval "
         f"({recompile.DEBOUNCE * 1e3:.0f} ms) plus the value-edit time.",
         "",
-        "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | slowest value edit (ms) | "
+        "| stack | coats | model | shader lines | trace (ms) | value edit (ms) | slowest value edit (ms) | settle (ms) | "
         "lobe inspector (ms) | structure edit, EEVEE: median, first (ms) | structure edit, Cycles OSL: median, first (ms) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for label, n, model, lines, trace, v, v_max, insp, s_eevee, s_osl in rows:
+    for label, n, model, lines, trace, v, v_max, settled, insp, s_eevee, s_osl in rows:
         md.append(f"| {label} | {n} | {model} | {lines} | {trace * 1e3:.0f} | {v * 1e3:.0f} | {v_max * 1e3:.0f} | "
+                  f"{settled * 1e3:.0f} | "
                   f"{insp * 1e3:.0f} | {statistics.median(s_eevee) * 1e3:.0f}, {s_eevee[0] * 1e3:.0f} | "
                   f"{statistics.median(s_osl) * 1e3:.0f}, {s_osl[0] * 1e3:.0f} |")
     path = Path(out_dir) / "recompile.md"

@@ -386,7 +386,7 @@ class Group:
 
 
 def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFAULT_RULE,
-          views: CheckViews | None = None, cap: int = MAX_CLOSURES) -> list[Group]:
+          views: CheckViews | None = None, cap: int = MAX_CLOSURES, partition=None) -> list[Group]:
     """The closures for ``samples`` (every lobe, on the grid views ``dirs``) under ``budget``
     (``parse``), never more than ``cap`` closures (``MAX_CLOSURES``: what Cycles' OSL draws; a
     renderer that draws every closure, Cycles' SVM and EEVEE, may take more). Lobes that read a linked input
@@ -395,12 +395,19 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFA
     requires, since a merged live closure keeps its members' energies alive until they are summed,
     which costs Cycles' SVM stack (four coats with three textured inputs: its five live lobes
     render in SVM, merged to two they overflow it). ``views``: where the automatic budget checks
-    its error (default ``check_views(dirs)``)."""
+    its error (default ``check_views(dirs)``). ``partition`` (lists of lobe indices, a previous
+    merge's grouping, ``Staged.merged``): kept as it is where it still fits ``samples`` (the same
+    lobes, each group of one kind, baked and live apart, within ``cap``), with no bisection and
+    no greedy order; the energies and tensors are merged anew at the lobes' new values. The
+    extension keeps a dragged slider's grouping this way and merges anew once edits pause."""
     baked = [s for s in samples if not s.live]
     live = [s for s in samples if s.live]
     for k, s in enumerate(samples):
         if s.index < 0:
             s.index = k
+    kept = _kept_partition(samples, partition, cap, rule) if partition is not None else None
+    if kept is not None:
+        return kept
     groups = _merge_baked(baked, budget, dirs, len(live), rule, views, cap)
     room = max(cap - len(groups), 1)
     if len(live) <= room:
@@ -408,6 +415,25 @@ def merge(samples: list[LobeSamples], budget, dirs: np.ndarray, rule: str = DEFA
     order = merge_order(live, rule)
     pick = next((level for level in order if len(level) <= room), order[-1])
     return groups + [Group(s, s.members) for s in pick]
+
+
+def _kept_partition(samples: list[LobeSamples], partition, cap: int, rule: str) -> list[Group] | None:
+    """``partition``'s groups of ``samples`` (by ``LobeSamples.index``), or None where it does not
+    fit them: every lobe in exactly one group, the lobes of a group of one mergeable kind and all
+    baked or all live, at most ``cap`` groups."""
+    by_index = {s.index: s for s in samples}
+    seen = [i for group in partition for i in group]
+    if sorted(seen) != sorted(by_index) or len(partition) > cap or not all(partition):
+        return None
+    groups = []
+    for group in partition:
+        lobes = [by_index[i] for i in group]
+        if len(lobes) > 1 and any(s.kind is not lobes[0].kind or s.live != lobes[0].live
+                                  or s.kind.name not in MERGEABLE for s in lobes):
+            return None
+        merged = combine(lobes, rule)
+        groups.append(Group(merged, merged.members))
+    return groups
 
 
 def _merge_baked(samples: list[LobeSamples], budget, dirs: np.ndarray, n_live: int, rule: str,

@@ -290,7 +290,8 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
 
 
 def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
-               view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all") -> OslShader:
+               view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all",
+               partition=None) -> OslShader:
     """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
 
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
@@ -305,7 +306,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     ``lut_dir``. ``view``: the renderer's convention for ``I`` (VIEW_TARGETS), which sets the one
     line computing the view direction. ``declare``: "all" declares every parameter of the model
     (Blender's Script node, whose sockets are where a texture is linked), "live" only those the
-    shader reads (an exported shader: no input that changes nothing)."""
+    shader reads (an exported shader: no input that changes nothing). ``partition``: the lobes'
+    grouping into closures to keep (``staging.stage``)."""
     if declare not in ("all", "live"):
         raise ValueError(f"declare must be 'all' or 'live', got {declare!r}")
     if view not in VIEW_LINES:
@@ -315,7 +317,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     if staged:
         from .staging import stage
 
-        st = stage(traced.stack, model, live, budget, traced=traced)
+        st = stage(traced.stack, model, live, budget, traced=traced, partition=partition)
         t, closures, frame, table = st.tracer, st.closures, st.frame, st.table
     else:
         st = None

@@ -244,7 +244,7 @@ class _Columns:
 
 
 def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None,
-          traced=None, live_axes: int = 0) -> Staged:
+          traced=None, live_axes: int = 0, partition=None) -> Staged:
     """Stage ``stack`` (a Stack, dict or JSON) under ``model`` for a material whose parameters in
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
@@ -253,7 +253,9 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     ``live_axes``: a value that depends on the view and on at most this many live parameters (each
     with an axis, ``live_axes.axis_of``) is baked on a table over (view, those parameters) instead
     of staying traced (0: every value a live parameter reaches stays traced). Only for a table with
-    one azimuth node; otherwise the live part stays traced."""
+    one azimuth node; otherwise the live part stays traced. ``partition``: the model's lobes grouped
+    into closures as a previous staging of this structure grouped them (``Staged.merged``), kept
+    instead of merging to ``budget`` again (a slider dragged: ``lobe_budget.merge``)."""
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
     if traced is None or traced.stack != stack:
@@ -307,7 +309,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         turn = on_grid is not None
         if on_grid is None:
             if axes:  # tables over (view, parameters) are made on one azimuth node
-                return stage(stack, model, live, budget, None, traced, 0)
+                return stage(stack, model, live, budget, None, traced, 0, partition)
             grid = ViewGrid(N_MU, N_PHI)
             on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
     dirs = grid.directions().reshape(-1, 3)
@@ -318,7 +320,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     samples += [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c), live=True) for c in moving]
     views = lobe_budget.check_views(dirs, turn)
     groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views,
-                               cap=lobe_budget.MAX_CLOSURES if not axes else max(len(samples), lobe_budget.MAX_CLOSURES))
+                               cap=lobe_budget.MAX_CLOSURES if not axes else max(len(samples), lobe_budget.MAX_CLOSURES),
+                               partition=partition)
     live_groups = [g for g in groups if g.lobe.live]
     moving_outs = [x for g in live_groups for m in g.members for x in (
         *(traced.closures[m.index].lobe.weight if len(g.members) > 1 else ()),
