@@ -8,9 +8,12 @@ best isotropic GGX lobe the model's form allows, against the stored energy-conse
 model's or the reference's albedo minus the surface lobe's. The relative L1 that remains is the
 floor of the lobe's *shape*: a model that got the base lobe's energy and roughness exactly right
 would still be that far from the reference. Where the floor is far above the target (0.10), the
-next gain needs another lobe shape, not better energies or roughnesses; the anisotropic floor
-(the base lobe's roughness along and across the incidence plane scanned separately) measures one
-candidate.
+next gain needs another lobe shape, not better energies or roughnesses. Three candidate shapes
+are measured the same way: two GGX lobes about the mirror direction for the base path (two
+roughnesses and the split of the energy scanned: a path whose roughness distribution is bimodal);
+one GGX lobe about the mirror of a tilted incidence (the incidence angle of the lobe and its
+roughness scanned: a lobe off the specular direction); and one GGX lobe with its roughness along
+and across the incidence plane scanned separately.
 
 Both lobes are normalised over the same half-vector grid as the metric (``suite.wo_grid``), so
 the comparison isolates shape from the grid's quadrature.
@@ -30,6 +33,9 @@ from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
 from .accuracy import load_reference, reference_noise
 
 ALPHAS = np.geomspace(0.01, 1.0, 81)  # the scan of the base lobe's roughness
+PAIR_ALPHAS = np.geomspace(0.01, 1.0, 41)  # the two lobes' roughnesses (every pair)
+SPLITS = np.linspace(0.0, 1.0, 21)  # the first of two lobes' share of the energy
+TILT_STEP = 2.5  # degrees: the tilted lobe's incidence, scanned within 30 degrees of the view
 
 
 def cases() -> list[str]:
@@ -66,6 +72,38 @@ def _aniso_floor(ops, wi, wo, w, top, energy, f_ref) -> tuple[float, float, floa
     return best
 
 
+def _two_lobe_floor(ops, wi, wo, w, top, energy, f_ref) -> tuple[float, float, float, float]:
+    """The best pair of GGX lobes about the mirror direction: (relative L1, alpha_1, alpha_2, the
+    first's share of ``energy``), every pair of ``PAIR_ALPHAS`` and share of ``SPLITS``."""
+    shapes = np.stack([_shape(ops, wi, wo, w, a) for a in PAIR_ALPHAS])
+    resid = f_ref - top
+    den = np.maximum((f_ref * w[:, None]).sum(0), 1e-30)  # as metrics.relative_l1
+    best = (np.inf, 0.0, 0.0, 0.0)
+    for i in range(len(PAIR_ALPHAS)):
+        for j in range(i + 1, len(PAIR_ALPHAS)):
+            mix = SPLITS[:, None] * shapes[i][None] + (1.0 - SPLITS[:, None]) * shapes[j][None]
+            err = ((np.abs(energy[None, None] * mix[:, :, None] - resid[None]) * w[None, :, None]).sum(1) / den).mean(-1)
+            k = int(np.argmin(err))
+            if err[k] < best[0]:
+                best = (float(err[k]), float(PAIR_ALPHAS[i]), float(PAIR_ALPHAS[j]), float(SPLITS[k]))
+    return best
+
+
+def _tilted_floor(ops, wi, wo, w, top, energy, f_ref, theta: float) -> tuple[float, float, float]:
+    """The best GGX lobe about the mirror direction of an incidence tilted in the incidence plane:
+    (relative L1, its incidence in degrees, alpha), the incidence within 30 degrees of ``theta``."""
+    best = (np.inf, theta, 0.0)
+    for tilt in np.arange(max(0.0, theta - 30.0), min(89.0, theta + 30.0) + 1e-9, TILT_STEP):
+        wv = np.broadcast_to(suite.incident(float(tilt)), wo.shape)
+        v = ggx_lobe_cos(ops, tuple(wv.T), tuple(wo.T), ALPHAS[:, None], ALPHAS[:, None], 1.0, 0.0)
+        v = v / np.maximum((v * w).sum(-1, keepdims=True), 1e-12)
+        for k, a in enumerate(ALPHAS):
+            err = relative_l1(top + energy[None] * v[k][:, None], f_ref, w)
+            if err < best[0]:
+                best = (err, float(tilt), float(a))
+    return best
+
+
 def measure() -> list[dict]:
     ops = NumpyOps(np.float64)
     rows = []
@@ -86,6 +124,8 @@ def measure() -> list[dict]:
             best_m = min((err(e_model, a), a) for a in ALPHAS)
             best_r = min((err(e_ref, a), a) for a in ALPHAS)
             aniso = _aniso_floor(ops, wi, wo, w, top, e_ref, f_ref)
+            two = _two_lobe_floor(ops, wi, wo, w, top, e_ref, f_ref)
+            tilted = _tilted_floor(ops, wi, wo, w, top, e_ref, f_ref, float(deg))
             rows.append({"case": name, "wi": float(deg), "model": lb.model,
                          "alpha_model": float(lb.alpha_x[0, 1]),
                          "rel_l1_auto": relative_l1(api.evaluate(stack, wi, wo, "auto", deltas=False), f_ref, w),
@@ -93,6 +133,8 @@ def measure() -> list[dict]:
                          "alpha_best": float(best_m[1]), "rel_l1_best_alpha": float(best_m[0]),
                          "alpha_best_ref_energy": float(best_r[1]), "rel_l1_floor": float(best_r[0]),
                          "rel_l1_floor_aniso": aniso[0], "alpha_along": aniso[1], "alpha_across": aniso[2],
+                         "rel_l1_floor_two": two[0], "two_alphas": [two[1], two[2]], "two_share": two[3],
+                         "rel_l1_floor_tilted": tilted[0], "tilted_theta": tilted[1], "tilted_alpha": tilted[2],
                          "ref_noise": reference_noise(ref, i)})
     return rows
 
@@ -106,21 +148,29 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
           "against the energy-conserving references. *auto*: the model's relative L1. *best α*: the base lobe's "
           "roughness scanned (energy the model's). *floor*: roughness scanned and energy the reference's albedo "
           "minus the surface lobe's, i.e. the error left if energy and roughness were exact "
-          "(`lamella/bench/lobe_floor.py`). *anisotropic floor*: the same with two roughnesses, along and across the "
-          "incidence plane. *noise*: the reference's own stderr on the metric (a floor of its own).", "",
-          "| case | θi | model α → best α | auto | best α | floor | anisotropic floor (α along, across) | noise |",
-          "|---|---:|---|---:|---:|---:|---|---:|"]
+          "(`lamella/bench/lobe_floor.py`). Other shapes for the base path, energy the reference's as for the floor: "
+          "*two lobes*: two GGX lobes about the mirror direction (roughnesses and energy split scanned); *tilted*: one "
+          "GGX lobe about the mirror of another incidence in the incidence plane (that incidence and α scanned); "
+          "*anisotropic*: two roughnesses, along and across the incidence plane. *noise*: the reference's own stderr "
+          "on the metric (a floor of its own).", "",
+          "| case | θi | model α → best α | auto | best α | floor | two lobes (α, α, share) | tilted (θ, α) | "
+          "anisotropic (α along, across) | noise |",
+          "|---|---:|---|---:|---:|---:|---|---|---|---:|"]
     for r in rows:
         md.append(f"| {r['case']} | {r['wi']:g}° | {r['alpha_model']:.3f} → {r['alpha_best']:.3f} | "
                   f"{r['rel_l1_auto']:.3f} | {r['rel_l1_best_alpha']:.3f} | {r['rel_l1_floor']:.3f} | "
+                  f"{r['rel_l1_floor_two']:.3f} ({r['two_alphas'][0]:.3f}, {r['two_alphas'][1]:.3f}, {r['two_share']:.2f}) | "
+                  f"{r['rel_l1_floor_tilted']:.3f} ({r['tilted_theta']:g}°, {r['tilted_alpha']:.3f}) | "
                   f"{r['rel_l1_floor_aniso']:.3f} ({r['alpha_along']:.3f}, {r['alpha_across']:.3f}) | {r['ref_noise']:.3f} |")
-    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | anisotropic floor | noise |",
-           "|---:|---:|---:|---:|---:|---:|"]
+    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | two lobes | tilted | anisotropic | noise |",
+           "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for a in angles:
         sel = [r for r in rows if r["wi"] == a]
         md.append(f"| {a:g}° | {np.median([r['rel_l1_auto'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_best_alpha'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_floor'] for r in sel]):.3f} | "
+                  f"{np.median([r['rel_l1_floor_two'] for r in sel]):.3f} | "
+                  f"{np.median([r['rel_l1_floor_tilted'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_floor_aniso'] for r in sel]):.3f} | {np.median([r['ref_noise'] for r in sel]):.3f} |")
     out = out_dir / "lobe_floor.md"
     out.write_text("\n".join(md) + "\n")
