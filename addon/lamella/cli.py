@@ -152,6 +152,10 @@ def cmd_bench(a) -> int:
         from .bench import staging
 
         print(staging.run(BENCH_DIR).read_text())
+    elif a.what == "albedo-controls":
+        from .bench import albedo_controls
+
+        print(albedo_controls.run(BENCH_DIR).read_text())
     elif a.what == "linked-tables":
         from .bench import linked_tables
 
@@ -372,7 +376,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "eevee-anisotropy",
+    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
                                        "trapping", "lobe-floor", "pareto"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
