@@ -199,9 +199,9 @@ def cmd_bench(a) -> int:
     elif a.what == "images":
         from .bench import images
 
-        md, js = images.run(a.cases.split(",") if a.cases else None)
+        md, js = images.run(a.cases.split(",") if a.cases else None, interfaces=a.interfaces)
         print(md.read_text())
-        print(f"wrote {md}, {js} and bench/images/*.png")
+        print(f"wrote {md}, {js} and bench/{md.stem}/*.png")
     return 0
 
 
@@ -383,6 +383,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
+    p.add_argument("--interfaces", choices=["single", "multiple"], default="single",
+                   help="images: against the single-scattering references (bench/images.md) or the energy-conserving "
+                        "ones (tests/references/images_multiple, bench/images_multiple.md)")
     p.set_defaults(fn=cmd_bench)
 
     p = sub.add_parser("stress", help="numerical stress: a million random stacks, a render grid of extreme stacks, "

@@ -53,3 +53,27 @@ def test_osl_render_does_not_drift_from_its_reference(case, tmp_path):
         limit = old[key] * (1.0 + rel) + abs_
         assert figures[key] <= limit, f"{case}: {key} {figures[key]:.5f} > recorded {old[key]:.5f} (+margin); see {tmp_path}"
     assert abs(figures["mean_bias"]) <= abs(old["mean_bias"]) + 0.002
+
+
+def test_the_energy_conserving_references_stored_are_energy_conserving():
+    """tests/references/images_multiple holds the cases rendered so far with Cycles' multiscatter
+    GGX interfaces (``lamella image-references --interfaces multiple``), each recorded as such."""
+    from lamella.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
+
+    index = load_index(IMAGE_REFERENCE_DIR_MULTIPLE)
+    assert index["cases"] and set(index["cases"]) <= set(suite.names())
+    for name, meta in index["cases"].items():
+        assert meta["interfaces"] == "multiple" and (IMAGE_REFERENCE_DIR_MULTIPLE / meta["file"]).stat().st_size > 0
+
+
+def test_osl_render_against_the_energy_conserving_reference_does_not_drift(tmp_path):
+    """One case of bench/images_multiple.json re-rendered (the gate of the single set, same margin)."""
+    from lamella.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
+
+    stored = json.loads((BENCH_DIR / "images_multiple.json").read_text())
+    old = next(r for r in stored["rows"] if r["case"] == "gold_coated" and r["engine"] == "cycles-osl")
+    figures, img, _ = images.compare_case("gold_coated", "cycles-osl", stored["spp"], IMAGE_REFERENCE_DIR_MULTIPLE,
+                                          budget=stored["budget"])
+    for key, (rel, abs_) in MARGIN.items():
+        assert figures[key] <= old[key] * (1.0 + rel) + abs_, (key, figures[key], old[key])
+    assert abs(figures["mean_bias"]) <= abs(old["mean_bias"]) + 0.002
