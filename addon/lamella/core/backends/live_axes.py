@@ -2,7 +2,7 @@
 
 Staging bakes what depends on the view alone into the material table and keeps what a linked
 parameter reaches traced. For a large stack that traced part is large (eight coats with media and
-textures on two coat roughnesses and the base colour: some 14 000 nodes), and Cycles without OSL
+textures on two coat roughnesses and the base colour: some 16 000 plan nodes), and Cycles without OSL
 (SVM) holds a shader's live values in a stack of 255 floats that such a part overflows: the
 material renders black. With table axes, a value that depends on the view and on at most
 ``MAX_AXES`` linked parameters is baked too, on a table over (view, those parameters), and read
@@ -30,7 +30,7 @@ import numpy as np
 from ..layers.schema import ANGLE, RGB, ROUGHNESS
 from ..stack import Stack
 
-N_AXIS = 17  # nodes along a parameter axis (bench/staging.md, "Linked parameters": error and size)
+N_AXIS = 17  # nodes along a parameter axis (bench/linked_tables.md: the error and size they give)
 N_AXIS_WIDE = 9  # along an axis other than a roughness's or an albedo's in a table over three parameters
 MAX_AXES = 3  # linked parameters a tabulated value may depend on: tables over (view, p, q, s)
 
