@@ -152,6 +152,12 @@ def cmd_bench(a) -> int:
         from .bench import staging
 
         print(staging.run(BENCH_DIR).read_text())
+    elif a.what == "holdout":
+        from .bench import holdout
+
+        if a.references:
+            holdout.compute_references(holdout.draw())
+        print(holdout.run()[0].read_text())
     elif a.what == "albedo-controls":
         from .bench import albedo_controls
 
@@ -376,13 +382,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(fn=cmd_references)
 
     p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "eevee-anisotropy",
+    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "holdout", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
                                        "trapping", "lobe-floor", "pareto"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
+    p.add_argument("--references", action="store_true",
+                   help="holdout: draw the hold-out stacks and compute their energy-conserving references first "
+                        "(about 30 minutes of CPU)")
     p.add_argument("--interfaces", choices=["single", "multiple"], default="single",
                    help="images: against the single-scattering references (bench/images.md) or the energy-conserving "
                         "ones (tests/references/images_multiple, bench/images_multiple.md)")

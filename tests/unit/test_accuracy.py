@@ -114,9 +114,14 @@ def test_reference_noise_floor(rows):
 
 
 @pytest.mark.parametrize("case", suite.names())
-def test_auto_is_within_ten_percent_of_the_best_model(rows, case):
+def test_auto_is_within_ten_percent_of_the_best_model(rows_multiple, case):
     """`auto` (a structural choice) is never worse than the best single model on a suite case by
-    more than 10 % relative, in relative L1 averaged over the incidence angles."""
+    more than 10 % relative, in relative L1 averaged over the incidence angles, against the
+    energy-conserving references (the yardstick the models are measured by; against the
+    single-scattering ones, which lose what a rough interface scatters again, endf on the rough
+    glass plate is 0.29 against tm2's and tm6's 0.27)."""
+    rows = rows_multiple
+
     def mean(m):
         rs = [rows[(case, m, wi)] for wi in suite.WI_DEGREES]
         return np.mean([r["rel_l1"] for r in rs]) if all("rel_l1" in r for r in rs) else np.inf

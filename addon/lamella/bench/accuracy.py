@@ -127,15 +127,80 @@ def reference_noise(ref: dict, i: int) -> float:
                          / np.maximum((ref[f"mean_{i}"] * w[:, None]).sum(0), 1e-30)))
 
 
-def evaluate_case(name: str, ref: dict, models=MODELS) -> list[dict]:
-    """Rows of (model, wi, relative L1, albedo error, noise floor) for one suite case."""
-    stack = suite.load(name)
+def isotropic(stack) -> bool:
+    """Every rough layer has the same roughness along both axes (so the stack's BRDF is symmetric
+    about the plane of incidence, and about the normal at normal incidence)."""
+    layers = list(stack.coats) + ([stack.base] if hasattr(stack.base, "roughness") else [])
+    return all(layer.roughness[0] == layer.roughness[1] for layer in layers)
+
+
+def _orbits(wi: np.ndarray, wo: np.ndarray, symmetry: str, n_theta: int = 16, n_phi: int = 24) -> np.ndarray:
+    """For directions of ``suite.wo_grid(wi)`` (upper hemisphere), a label per direction shared by
+    the directions the stack's BRDF cannot tell apart: ``"ring"`` every azimuth of a ring about the
+    normal, ``"mirror"`` the mirror image through the plane of incidence (half-vector azimuth cell
+    k and n_phi - 1 - k), ``"half_turn"`` the direction turned by 180 degrees about the normal
+    (cell k and k + n_phi / 2)."""
+    h = wi[None, :] + wo
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    t = np.sqrt(np.arccos(np.clip(h[:, 2], -1.0, 1.0)) / (0.5 * np.pi))
+    ti = np.clip(np.rint(t * n_theta - 0.5), 0, n_theta - 1).astype(int)
+    phi = np.mod(np.arctan2(h[:, 1], h[:, 0]), 2.0 * np.pi)
+    pk = np.mod(np.rint(phi / (2.0 * np.pi) * n_phi - 0.5), n_phi).astype(int)
+    if symmetry == "ring":
+        return ti
+    if symmetry == "mirror":
+        return ti * n_phi + np.minimum(pk, n_phi - 1 - pk)
+    if symmetry == "half_turn":
+        return ti * n_phi + pk % (n_phi // 2)
+    raise ValueError(f"unknown symmetry {symmetry!r}")
+
+
+def symmetrized(mean: np.ndarray, stderr: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A reference averaged over the directions of each label (exact symmetries of the stack):
+    the same expectation, a smaller standard error (that of the average of independent estimates)."""
+    out_m, out_e = np.empty_like(mean), np.empty_like(stderr)
+    for lab in np.unique(labels):
+        sel = labels == lab
+        out_m[sel] = mean[sel].mean(0)
+        out_e[sel] = np.sqrt((stderr[sel] ** 2).sum(0)) / sel.sum()
+    return out_m, out_e
+
+
+def symmetry(stack, deg: float) -> str | None:
+    """The symmetry of the stack's BRDF at incidence ``deg`` in the plane of the shading tangent
+    (``_orbits``). Every layer's GGX distribution is unchanged by a half turn about the normal, so
+    at normal incidence any stack is; an isotropic stack is also symmetric about the plane of
+    incidence, and at normal incidence about the normal."""
+    if isotropic(stack):
+        return "ring" if deg == 0.0 else "mirror"
+    return "half_turn" if deg == 0.0 else None
+
+
+def reference_by_symmetry(ref: dict, i: int, stack, side: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """The stored reference's mean and standard error at its i-th incidence (``side`` "_t": the
+    transmitted side), averaged over the directions the stack cannot tell apart (``symmetry``; the
+    walkers of each direction are independent, so this only lowers the noise)."""
+    mean, err = ref[f"mean{side}_{i}"], ref[f"stderr{side}_{i}"]
+    deg = float(ref["wi_degrees"][i])
+    kind = symmetry(stack, deg)
+    if kind is None:
+        return mean, err
+    wo = ref[f"wo{side}_{i}"] * (np.array([1.0, 1.0, -1.0]) if side else 1.0)  # transmitted: the mirrored grid
+    return symmetrized(mean, err, _orbits(suite.incident(deg), wo, kind))
+
+
+def evaluate_case(name: str, ref: dict, models=MODELS, stack=None) -> list[dict]:
+    """Rows of (model, wi, relative L1, albedo error, noise floor) for one suite case (or for
+    ``stack`` under that name). An isotropic stack's reference is first averaged over the
+    directions it cannot tell apart (``reference_by_symmetry``)."""
+    stack = suite.load(name) if stack is None else stack
     rows = []
     for i, deg in enumerate(ref["wi_degrees"]):
         wi = suite.incident(float(deg))
-        wo, weight, f_ref = ref[f"wo_{i}"], ref[f"weight_{i}"], ref[f"mean_{i}"]
+        wo, weight = ref[f"wo_{i}"], ref[f"weight_{i}"]
+        f_ref, err = reference_by_symmetry(ref, i, stack)
         a_ref = ref[f"albedo_{i}"]
-        noise = reference_noise(ref, i)
+        noise = float(np.mean((err * weight[:, None]).sum(0) / np.maximum((f_ref * weight[:, None]).sum(0), 1e-30)))
         for m in models:
             try:
                 f = api.evaluate(stack, wi, wo, m, deltas=False)  # deltas: compared through the albedo
@@ -149,7 +214,8 @@ def evaluate_case(name: str, ref: dict, models=MODELS) -> list[dict]:
             if f"wo_t_{i}" in ref:  # a dielectric base: the transmitted side too
                 ft = api.evaluate(stack, wi, ref[f"wo_t_{i}"], m, deltas=False)
                 at = api.albedo(stack, wi, m, side="transmitted")[0]
-                row.update({"rel_l1_t": relative_l1(ft, ref[f"mean_t_{i}"], ref[f"weight_t_{i}"]),
+                row.update({"rel_l1_t": relative_l1(ft, reference_by_symmetry(ref, i, stack, "_t")[0],
+                                                    ref[f"weight_t_{i}"]),
                             "albedo_err_t": albedo_error(at, ref[f"albedo_t_{i}"])})
             rows.append(row)
     return rows

@@ -65,6 +65,47 @@ def tir_eta_to_coord(ops, eta):
     return (ops.clamp(eta, TIR_ETA_MIN, 1.0) - TIR_ETA_MIN) * (1.0 / (1.0 - TIR_ETA_MIN))
 
 
+# The index-ratio axis of the multiple-scattering table: log-spaced from 1 / MS_ETA_MAX to MS_ETA_MAX
+# (eta = 1, an index-matched interface, is the middle node).
+MS_ETA_MAX = 3.0
+
+
+def ms_eta_to_coord(ops, eta):
+    return ops.clamp(0.5 + ops.log(ops.max(eta, 1e-6)) * (0.5 / math.log(MS_ETA_MAX)), 0.0, 1.0)
+
+
+def _ms_eta_nodes(n):
+    return MS_ETA_MAX ** np.linspace(-1.0, 1.0, n)
+
+
+# The direction axis of the rough-dielectric reflectance table, in the sine s of the direction:
+# up to the critical angle of the denser side (s = eta < 1), or up to grazing (s = 1, eta >= 1), at
+# coordinates 0 to MS_KNEE (MS_KNEE (r + r^2) / 2 of r = s / min(eta, 1): nodes three times as dense
+# toward its end, where the reflectance turns fastest); past the
+# critical angle up to grazing at MS_KNEE to 1, crowded toward the critical angle. Both ends of the
+# first part fall on nodes for every eta.
+MS_KNEE = 0.6
+
+
+def ms_x_to_coord(ops, mu, eta):
+    s = ops.sqrt(ops.max(1.0 - mu * mu, 0.0))
+    sc = ops.min(eta, 1.0)
+    r = ops.min(s / ops.max(sc, 1e-6), 1.0)
+    v = ops.max(s - eta, 0.0) / ops.max(1.0 - eta, 1e-6)
+    return ops.clamp(MS_KNEE * 0.5 * (r + r * r) + (1.0 - MS_KNEE) * ops.sqrt(ops.min(v, 1.0)), 0.0, 1.0)
+
+
+def ms_sine(c: float, eta: float) -> float:
+    """The sine of the direction at coordinate ``c`` of that axis for ``eta`` (the inverse of
+    ``ms_x_to_coord``; coordinates past grazing, c > MS_KNEE with eta >= 1, give grazing)."""
+    if c <= MS_KNEE:
+        return 0.5 * (math.sqrt(1.0 + 8.0 * c / MS_KNEE) - 1.0) * min(eta, 1.0)
+    if eta >= 1.0:
+        return 1.0
+    v = ((c - MS_KNEE) / (1.0 - MS_KNEE)) ** 2
+    return eta + v * (1.0 - eta)
+
+
 def _mu_nodes(n):
     return np.linspace(0.0, 1.0, n) ** 2
 
@@ -86,6 +127,7 @@ class TableSpec:
 
 
 N_MU, N_ALPHA, N_TIR_U, N_TIR_ETA, N_HAT = 32, 32, 32, 17, 24
+N_MS_X, N_MS_ALPHA, N_MS_ETA = 41, 16, 13  # 41: MS_KNEE = 0.6 is node 24
 # Cosine nodes of the Fresnel quadrature, denser toward grazing where Fresnel curves bend
 # (24 nodes at t^1.5 measured best among 12/24/32 nodes and exponents 2/1.5/1.3).
 FRESNEL_NODES = tuple(float(x) for x in np.linspace(0.0, 1.0, N_HAT) ** 1.5)
@@ -94,6 +136,8 @@ SPECS = {
     "fresnel_hat_delta": TableSpec("fresnel_hat_delta", "fresnel_hat_delta.exr", "Y", (N_MU, N_ALPHA, N_HAT)),
     "tir": TableSpec("tir", "tir.exr", "Y", (N_TIR_U, N_ALPHA, N_TIR_ETA)),
     "ggx_refract_albedo": TableSpec("ggx_refract_albedo", "ggx_refract_albedo.exr", "Y", (N_MU, N_ALPHA)),
+    "dielectric_rough_reflect": TableSpec("dielectric_rough_reflect", "dielectric_rough_reflect.exr", "Y",
+                                       (N_MS_X, N_MS_ALPHA, N_MS_ETA)),
 }
 
 # 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:
@@ -114,8 +158,10 @@ def table(name: str) -> np.ndarray:
         if not path.exists():
             raise FileNotFoundError(f"look-up tables {path} are missing: run `lamella luts` to generate them")
         with np.load(path) as npz:
-            for key in SPECS:
-                _cache[key] = np.ascontiguousarray(npz[key], dtype=np.float32).reshape(SPECS[key].shape)
+            if name not in npz.files or npz[name].size != math.prod(SPECS[name].shape):
+                raise ValueError(f"look-up table {name} in {path} is missing or of another shape than "
+                                 f"{SPECS[name].shape}: run `lamella luts` to generate the tables again")
+            _cache[name] = np.ascontiguousarray(npz[name], dtype=np.float32).reshape(SPECS[name].shape)
     return _cache[name]
 
 
@@ -337,8 +383,55 @@ def generate_refract_albedo(n_samples: int = 160, eta: float = REFRACT_ETA) -> n
     return out
 
 
+MS_WALKS, MS_SEED = 1 << 16, 7  # walks per cell of dielectric_rough_reflect, and their random numbers
+
+
+def dielectric_rough_reflect_cell(s: float, alpha: float, eta: float, walks: int = MS_WALKS,
+                                  seed: int = MS_SEED) -> float:
+    """One value of ``dielectric_rough_reflect`` at the direction of sine ``s``: the share of
+    ``walks`` random walks on the microsurface (Heitz et al. 2016) that leave on the side they came
+    from; at alpha = 0 the smooth interface's Fresnel factor."""
+    from .microsurface import _fresnel_dielectric, walk
+
+    s = min(s, 1.0)
+    mu = max(math.sqrt(max(1.0 - s * s, 0.0)), MU_FLOOR)
+    if alpha <= 0.0 or abs(eta - 1.0) < 1e-12:
+        return float(_fresnel_dielectric(np.array([mu]), np.array([eta]))[0])
+    wi = np.broadcast_to(np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu]), (walks, 3))
+    o, _, left = walk(wi, alpha, alpha, np.random.default_rng(seed), eta=np.full(walks, eta))
+    return float(np.mean(left & (o[:, 2] > 0)))
+
+
+def generate_dielectric_rough_reflect(walks: int = MS_WALKS, seed: int = MS_SEED) -> np.ndarray:
+    """The directional reflectance of an energy-conserving rough dielectric interface (Heitz,
+    Hanika, d'Eon and Dachsbacher 2016, Sections 5-6: the random walk on the microsurface,
+    reflecting and refracting at every facet) over (direction, alpha, eta), light
+    arriving from the side of index n1 onto eta = n2 / n1 (``dielectric_rough_reflect_cell``).
+    One minus it is the interface's transmittance, as the walk conserves energy. The models use it
+    from the denser side, where single-scattering FGD falls short: the light one facet sends on
+    meets others past their own critical angle (alpha 0.3, eta 1 / 1.5, 37 degrees: 0.13 more than
+    single scattering), and FGD's Fresnel quadrature rounds the kink of the Fresnel curve at the
+    critical angle off differently for every eta (errors up to 0.15 there). The direction axis puts
+    that critical angle, and grazing, on nodes for every eta (``ms_x_to_coord``). The table holds the
+    reflectance itself, which roughness makes smooth across the critical angle; the smooth
+    interface's Fresnel factor jumps there, so the models hand over to it below alpha 0.02
+    (``fgd.fgd_dielectric``). Every cell uses the same random numbers, so the table is smooth in its
+    parameters. About 7 minutes."""
+    cs = np.linspace(0.0, 1.0, N_MS_X)
+    alphas = _alpha_nodes(N_MS_ALPHA)
+    etas = _ms_eta_nodes(N_MS_ETA)
+    out = np.zeros((N_MS_X, N_MS_ALPHA, N_MS_ETA))
+    for i, c in enumerate(cs):
+        for j, a in enumerate(alphas):
+            for k, eta in enumerate(etas):
+                out[i, j, k] = dielectric_rough_reflect_cell(ms_sine(float(c), float(eta)), float(a), float(eta),
+                                                             walks, seed)
+    return out
+
+
 def generate_all() -> dict[str, np.ndarray]:
     tables = generate_ggx_albedo()
     tables["tir"] = generate_tir()
     tables["ggx_refract_albedo"] = generate_refract_albedo()
+    tables["dielectric_rough_reflect"] = generate_dielectric_rough_reflect()
     return tables

@@ -182,7 +182,8 @@ def g2_transmission(lam_i, lam_o):
     return np.exp((lg(a) + lg(b) - lg(a + b)).astype(float))
 
 
-def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int = MAX_ORDER, orders=None):
+def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int = MAX_ORDER, orders=None,
+         events: bool = False):
     """Random walks on the microsurface for rays arriving along -``i`` (K, 3) from the side
     +z (the interface's frame, i.z > 0). ``eta``: n_below / n_above (K,) for a dielectric, or
     ``conductor`` = (eta (3,), k (3,)) relative to the medium above.
@@ -192,7 +193,8 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
     1 for a dielectric) and whether it left within ``max_order`` events (a walk still inside carries
     nothing). With ``target`` (K, 3): the stochastic estimate of f(i, target) |target.z| (K, 3)
     by next-event estimation at every vertex. ``orders``: count only these scattering orders
-    (1 = single scattering), for the validation."""
+    (1 = single scattering), for the validation. ``events=True`` (without ``target``) also returns
+    how many times each walk scattered before it left (K,)."""
     K = i.shape[0]
     w = -np.asarray(i, dtype=float)  # the ray's direction in the frame of its side (normals up)
     h = np.full(K, 2.0)  # above the highest microfacet
@@ -202,6 +204,7 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
     out = np.zeros((K, 3))
     left = np.zeros(K, bool)
     q = np.zeros((K, 3))
+    scattered = np.zeros(K, np.int64)
     eta_out = None if conductor is not None else np.broadcast_to(np.asarray(eta, dtype=float), (K,))
     for order in range(1, max_order + 1):
         idx = np.nonzero(active)[0]
@@ -212,6 +215,7 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
         g = idx[gone]
         out[g] = np.where(outside[g, None], w[g], -w[g])
         left[g] = True
+        scattered[g] = order - 1
         active[g] = False
         idx, hh = idx[~gone], hh[~gone]
         if idx.size == 0:
@@ -241,4 +245,6 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
         w[idx] /= np.linalg.norm(w[idx], axis=1, keepdims=True)
     if target is not None:
         return q
+    if events:
+        return out, np.where(left[:, None], energy, 0.0), left, scattered
     return out, np.where(left[:, None], energy, 0.0), left

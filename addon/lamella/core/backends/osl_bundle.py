@@ -45,6 +45,8 @@ _TABLE_ROLES = {
     "tir": "total-internal-reflection correction of a lobe refracted into a coat (Belcour 2018)",
     "ggx_refract_albedo": "directional albedo of the refracting GGX closure, the normaliser of the "
                           "transmission lobe",
+    "dielectric_rough_reflect": "what a rough dielectric interface reflects after scattering more than once "
+                             "on its microsurface (Heitz et al. 2016): the reflectance from inside a coat",
 }
 
 

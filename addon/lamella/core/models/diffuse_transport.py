@@ -15,11 +15,12 @@ Each coat is summarised for such light by hemispherical averages of its energies
 * a scattering interior: the Kubelka-Munk slab of the six-flux model (``homogeneous_medium``) over
   twice the thickness, the mean path of cosine-distributed light.
 
-``DiffuseUp`` adds these from the top coat down, keeping what the base needs: the transmittance
-``up`` of the whole stack above for diffuse light going up, and its reflectance ``back`` (light
-going up that the stack returns, by reflections and total internal reflection). The base then
-sends out ``e_in A up / (1 - A back)`` (all orders of base-coat bounces), e_in the energy that
-reached it.
+``DiffuseUp`` sums the stack above a diffuse base for the light it sends up, direction by
+direction (each with its own Fresnel factors and path lengths; the averages above are what a
+scattering interior and the coats' own diffuse reflectance use): the transmittance ``up`` of the
+whole stack above and its reflectance ``back`` (light going up that the stack returns, by
+reflections and total internal reflection). The base then sends out ``e_in A up / (1 - A back)``
+(all orders of base-coat bounces), e_in the energy that reached it.
 """
 from __future__ import annotations
 
@@ -82,34 +83,86 @@ def interior(ops, p) -> tuple[RGB, RGB | None]:
     return RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd))
 
 
+# Directions of the light a Lambertian base sends up, for ``DiffuseUp``: cosine-weighted light is
+# uniform in u = sin^2 of its angle in the base's medium; Gauss-Legendre nodes on [0, 1] (8 points),
+# used on the escape cone and on the rest of the hemisphere separately (the kink at the critical
+# angle would otherwise fall between nodes).
+_GL8 = tuple(0.5 * (1.0 + s * x) for x in _GL_X for s in (-1.0, 1.0))
+_GL8_W = GAUSS_W
+
+
 class DiffuseUp:
-    """The stack above a diffuse base, for diffuse light going up: ``up`` (transmitted to the top)
-    and ``back`` (returned downward), per channel, built coat by coat from the top."""
+    """The stack above a diffuse base, for the light it sends up: ``up`` (the share that leaves
+    through the top) and ``back`` (the share the stack returns to the base, by Fresnel reflection,
+    total internal reflection and, for scattering interiors, back-scattering), per channel.
+
+    Coats are recorded from the top down and summed at the base (``base_energy``) direction by
+    direction: light leaving the base at a given angle keeps n sin(theta) through smooth
+    interfaces, so each direction has its own Fresnel factors and path lengths in every absorbing
+    interior, and the stack's response to it is the adding of its interfaces and interiors along
+    it (all orders of reflection between them). The Lambertian base spreads what comes back over
+    the hemisphere again, so only the cosine-weighted averages of ``up`` and ``back`` over the
+    directions matter. Light inside the escape cone leaves along short paths and light beyond it,
+    returned by total internal reflection, crossed the interiors along long ones; averaging the
+    transmittance of each over the hemisphere first (2 E3 of the optical depth) makes the escaping
+    light too dark under an absorbing coat (a coat of optical depth 0.56-1.1 over a diffuse base:
+    0.100 against the walk's 0.123 in green). Interface roughness is neglected (it redistributes
+    diffuse light but hardly changes its averages), and a scattering interior is taken as diffuse
+    both ways (the Kubelka-Munk slab of ``interior``), the same for every direction."""
 
     def __init__(self):
-        self.up = RGB.splat(1.0)
-        self.back = RGB.splat(0.0)
+        self._steps: list[tuple] = []
+        self._n = 1.0  # index of the medium below the coats added so far
 
     def add_interface(self, ops, eta):
         """An interface below the part added so far: n_below / n_above = eta."""
-        r_above = diffuse_fresnel(ops, eta)  # light coming down onto it
-        r_below = diffuse_fresnel(ops, 1.0 / eta)  # light coming up onto it (TIR included)
-        denom = (1.0 - r_above * self.back).map(lambda d: ops.max(d, 1e-7))
-        self.up = (1.0 - r_below) * self.up / denom
-        self.back = r_below + (1.0 - r_below) * self.back * (1.0 - r_above) / denom
+        self._steps.append(("interface", self._n, self._n * eta))
+        self._n = self._n * eta
 
-    def add_medium(self, ops, t: RGB, r: RGB | None = None):
-        """A medium below the part added so far: diffuse transmittance ``t`` each way and (a
-        scattering medium) diffuse reflectance ``r`` on each side."""
+    def add_medium(self, ops, p):
+        """The interior of the coat just added, from its backend parameters ``p``."""
+        t, r = interior(ops, p)
         if r is None:
-            self.up = t * self.up
-            self.back = t * t * self.back
-            return
-        denom = (1.0 - r * self.back).map(lambda d: ops.max(d, 1e-7))
-        self.up = t * self.up / denom
-        self.back = r + t * t * self.back / denom
+            tau = p.get("sigma_a", RGB.splat(0.0)).map(lambda s: s * p["thickness"])
+            self._steps.append(("absorbing", self._n, tau))
+        else:
+            self._steps.append(("scattering", t, r))
+
+    def _along(self, ops, s2):
+        """(up, back) of the stack for light going up with n^2 sin^2 = s2 (RGB)."""
+        up, back = RGB.splat(1.0), RGB.splat(0.0)
+        for step in self._steps:
+            if step[0] == "interface":
+                _, n_above, n_below = step
+                c = ops.sqrt(ops.max(1.0 - s2 / (n_below * n_below), 0.0))  # cosine below
+                r = fresnel_dielectric(ops, c, n_above / n_below)  # 1 past the critical angle
+                denom = (1.0 - r * back).map(lambda d: ops.max(d, 1e-7))
+                up = (1.0 - r) * up / denom
+                back = r + (1.0 - r) * (1.0 - r) * back / denom
+            elif step[0] == "absorbing":
+                _, n, tau = step
+                c = ops.max(ops.sqrt(ops.max(1.0 - s2 / (n * n), 0.0)), 1e-6)
+                a = tau.map(lambda x: ops.exp(-x / c))
+                up, back = a * up, a * a * back
+            else:
+                _, t, r = step
+                denom = (1.0 - r * back).map(lambda d: ops.max(d, 1e-7))
+                up, back = t * up / denom, r + t * t * back / denom
+        return up, back
+
+    def averages(self, ops):
+        """(up, back) averaged over cosine-weighted directions in the base's medium."""
+        n_b = self._n
+        u_c = ops.min(1.0 / (n_b * n_b), 1.0)  # the escape cone: n_b^2 u < 1
+        up, back = RGB.splat(0.0), RGB.splat(0.0)
+        for lo, width in ((0.0, u_c), (u_c, 1.0 - u_c)):
+            for x, w in zip(_GL8, _GL8_W):
+                u_up, u_back = self._along(ops, n_b * n_b * (lo + width * x))
+                up, back = up + u_up * (w * width), back + u_back * (w * width)
+        return up, back
 
     def base_energy(self, ops, e_in: RGB, albedo: RGB) -> RGB:
         """Energy a Lambertian base of ``albedo`` sends out of the top, all orders of bounces
         between the base and the stack above, for energy ``e_in`` reaching it."""
-        return e_in * albedo * self.up / (1.0 - albedo * self.back).map(lambda d: ops.max(d, 1e-7))
+        up, back = self.averages(ops)
+        return e_in * albedo * up / (1.0 - albedo * back).map(lambda d: ops.max(d, 1e-7))

@@ -1,8 +1,9 @@
 """Pre-integrated interface terms read from the tables of ``lamella.core.luts``.
 
-FGD (paper 001 Eq. 8) is the directional albedo of a rough interface with exact Fresnel; GD (paper
-001 Eq. 38) the same with F = 1, the lobe normaliser. Smooth limits are exact to floating-point
-precision: the tables hold rough-minus-smooth differences.
+FGD (Randrianandrasana et al. 2021 Eq. 8) is the directional albedo of a rough interface with exact
+Fresnel, single scattering; GD (Eq. 38) the same with F = 1, the lobe normaliser. Smooth limits are
+exact to floating-point precision: the tables hold rough-minus-smooth differences, and the
+multiple-scattering tables vanish for a smooth interface.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ def _coords(ops, mu, alpha):
 
 
 def gd(ops, mu, alpha):
-    """Directional albedo of a GGX lobe with F = 1 (paper 001 Eq. 38)."""
+    """Directional albedo of a GGX lobe with F = 1 (Randrianandrasana et al. 2021 Eq. 38)."""
     cm, ca = _coords(ops, mu, alpha)
     return ops.lut("ggx_albedo", cm, ca)
 
@@ -54,9 +55,25 @@ def fgd_quadrature(ops, mu, alpha, fresnel):
     return ops.clamp(rough + (fresnel(mu) - interp) * blend, 0.0, 1.0)
 
 
-def fgd_dielectric(ops, mu, alpha, eta):
+def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
     """FGD of a dielectric interface, light from the side of index n1 onto n2, eta = n2 / n1
-    (total internal reflection included through the exact Fresnel curve)."""
+    (total internal reflection included through the exact Fresnel curve).
+
+    ``multiple=True``: the whole reflectance of the energy-conserving interface instead (Heitz,
+    Hanika, d'Eon and Dachsbacher 2016; the ``dielectric_rough_reflect`` table), handing over to the
+    exact Fresnel factor as alpha goes to 0 (the blend of ``fgd_quadrature``); one minus it is the
+    interface's transmittance. From the denser side it is well above FGD
+    (alpha 0.3, eta 1 / 1.5, 37 degrees: 0.43 against 0.27), because light one facet sends on meets
+    others past their own critical angle, and FGD's quadrature rounds the Fresnel curve's kink at the
+    critical angle off. From the lighter side the two agree within 0.01 (alpha up to 0.6), and the
+    part single scattering misses leaves broader than the GGX lobe FGD weights, so the models use
+    this from below only (``adding_doubling``)."""
+    if multiple:
+        rough = ops.lut("dielectric_rough_reflect", luts.ms_x_to_coord(ops, mu, eta),
+                        luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
+        a = alpha * (1.0 / ALPHA_BLEND)
+        blend = ops.exp(-(a * a))
+        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * blend, 0.0, 1.0)
     return fgd_quadrature(ops, mu, alpha, lambda c: fresnel_dielectric(ops, c, eta))
 
 

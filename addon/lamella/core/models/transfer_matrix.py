@@ -37,7 +37,9 @@ base reflects every family (Eq. 24); a dielectric base's transmission is the tra
 (Eq. 25); a Lambertian base sends back up what reaches it through ``diffuse_transport``.
 
 Interfaces: R = FGD at the mean direction (exact Fresnel, total internal reflection included),
-T = 1 - R, the same from both sides (as the adding-doubling models), with Belcour 2018's TIR
+T = 1 - R from above; from below, along the refracted mean direction, the interface's whole
+reflectance from that side (FGD plus what the microsurface reflects after scattering more than
+once, Heitz et al. 2016; ``fgd.fgd_dielectric(multiple=True)``), as the adding-doubling models; with Belcour 2018's TIR
 correction on the upward transmission of each interface (local escape cone, at the roughness of
 the light coming back up: for the primary, its first-order asymmetry after the next interface
 reflects it (as Eq. 22's upward factor; the primary's downward spread alone under-counted the
@@ -57,7 +59,6 @@ from dataclasses import dataclass
 from . import hg
 from .adding_doubling import COS_FLOOR, Lobe, UnsupportedStack, layer_params
 from .diffuse_transport import DiffuseUp
-from .diffuse_transport import interior as diffuse_interior
 from .fgd import fgd_dielectric, tir_fraction
 from .homogeneous_medium import slab
 from .rgb import RGB
@@ -225,16 +226,20 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         n12 = p["ior"] / n_above
         alpha = rms_alpha(ops, p["ax"], p["ay"])
         R, T, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1)
+        R_up = _reflectance_from_below(ops, ctt, alpha, n12, R)
+        T_up = 1.0 - R_up
         alpha_next = _next_alpha(ops, coats, base, index)
         # escape back into the medium above, at the spread of the light the next interface sends up
         alpha_up = hg.alpha_of_g(ops, g1_new * hg.g_of_alpha(ops, alpha_next))
         tir = tir_fraction(ops, sx / n12, sy / n12, n12, alpha_up)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
-        ru, tu = R + T * (1.0 - tir), T * tir
+        ru, tu = R_up + T_up * (1.0 - tir), T_up * tir
         ups = {P: (ru, tu)}
         if n > 1:
             # light a medium scattered is broad when it comes back up (scattered, reflected by the
-            # base, scattered again): it escapes through the cone of the broadest lobe
+            # base, scattered again): it escapes through the cone of the broadest lobe, which
+            # already holds what total internal reflection returns (the interface's reflectance
+            # from below at the primary's mean direction would count that a second time)
             tir_s = tir_fraction(ops, sx / n12, sy / n12, n12, SECONDARY_ESCAPE_ALPHA)
             ups[F] = ups[B] = (R + T * (1.0 - tir_s), T * tir_s)
         up = {(k, k): RGB.splat(ups[k][0]) for k in range(n)}
@@ -248,10 +253,10 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
             diffuse_up.add_interface(ops, n12)
         cti, sx, sy, g1, n_above = ctt, sx / n12, sy / n12, g1_new, p["ior"]
         if "thickness" in p:
-            ce, cg, t_d, r_d = _medium(ops, p, cti, n)
+            ce, cg = _medium(ops, p, cti, n)
             add(ce, cg)
             if diffuse_up is not None:
-                diffuse_up.add_medium(ops, t_d, r_d)
+                diffuse_up.add_medium(ops, p)
 
     ops.set_scope("base")
     if diffuse_up is not None:
@@ -309,6 +314,15 @@ def _interface(ops, cti, alpha, n12, g1):
     return R, 1.0 - R, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
 
 
+def _reflectance_from_below(ops, ctt, alpha, n12, R):
+    """Directional albedo of the interface for light arriving from below along the refracted mean
+    direction (cosine ``ctt``): FGD(ctt, alpha, 1 / n12). Facets tilted past the critical angle
+    reflect totally, so a rough interface reflects more from the denser side than from above;
+    the smooth limit is the same Fresnel factor both ways. Where the mean direction does not
+    transmit (R = 1) nothing comes back up and R is returned."""
+    return ops.select(R < 1.0, fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True), R)
+
+
 def _next_alpha(ops, coats, base, index):
     """Roughness of the interface below coat ``index`` (the next coat's top or the base's); for a
     Lambertian base 1, the broadest lobe of the g <-> alpha fit (its light is broader still)."""
@@ -334,15 +348,12 @@ def _upward_transmission_g(ops, g_down, alpha_next, alpha, n12):
 
 def _medium(ops, p, mu, n: int):
     """The coat interior as a component along the refracted mean direction (cosine ``mu``): six-flux
-    factors per channel (``homogeneous_medium``), plus its diffuse transmittance and reflectance
-    for light from a diffuse base (Kubelka-Munk over twice the thickness, the mean path of
-    cosine-distributed light)."""
+    factors per channel (``homogeneous_medium``)."""
     h = p["thickness"] / ops.max(mu, COS_FLOOR)
     sig_a = p.get("sigma_a", RGB.splat(0.0))
-    t_d, r_d = diffuse_interior(ops, p)
     if "sigma_s" not in p:  # absorption only: every family decays alike, nothing is scattered
         t = sig_a.map(lambda s: ops.exp(-s * h))
-        return (Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n)), t_d, None)
+        return Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n))
     sig_s, g = p["sigma_s"], p["g"]
     e = [slab(ops, sa, ss, g, h) for sa, ss in zip(sig_a, sig_s)]
     a = [slab(ops, sa, ss, g, h, asymmetry=True) for sa, ss in zip(sig_a, sig_s)]
@@ -353,4 +364,4 @@ def _medium(ops, p, mu, n: int):
         rt = {(B, P): r, (B, F): r, (F, B): r}
         return Component(rt, td, dict(rt), dict(td))
 
-    return comp(e), comp(a), t_d, r_d
+    return comp(e), comp(a)

@@ -1,0 +1,167 @@
+"""`lamella bench holdout`: the models on stacks no one tuned them on.
+
+The suite's stacks (``lamella.core.suite``) are the ones every model change was measured on, so a
+change can fit them and not carry over. The hold-out set is drawn at random, once, from the
+ranges artists use (``draw``: one to three coats, clear / absorbing / scattering, isotropic or
+brushed, over a measured metal, a diffuse or a glass base), with a fixed seed, and its
+energy-conserving references (multiple-scattering interfaces, Heitz et al. 2016) are stored in
+``tests/references/brdf_holdout`` with the stack in their meta. A model change is kept when it
+helps here as well as on the suite.
+
+    lamella bench holdout --references   # draw the stacks and compute their references (CPU: ~30 min)
+    lamella bench holdout                # the table, bench/holdout.md, from the stored references
+"""
+from __future__ import annotations
+
+import json
+import math
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..core import metals, suite
+from ..core.stack import Stack
+from . import BENCH_DIR, REPO
+from .accuracy import MODELS, _angle_arrays, evaluate_case, load_reference
+
+HOLDOUT_DIR = REPO / "tests" / "references" / "brdf_holdout"
+SEED = 20261126
+COUNT = 16
+SPP = 4096
+
+
+def _roughness(rng, smooth_p: float, aniso_p: float) -> tuple[list[float], float]:
+    """GGX alpha per axis and the rotation: alpha = r^2 with r uniform (how artists set it), a share
+    of smooth layers and of brushed (anisotropic, rotated) ones."""
+    if rng.random() < smooth_p:
+        return [0.0, 0.0], 0.0
+    a = float(rng.uniform(0.15, 0.65)) ** 2
+    if rng.random() < aniso_p:
+        return [a, a * float(rng.uniform(0.15, 0.8))], float(rng.uniform(0.0, math.pi))
+    return [a, a], 0.0
+
+
+def _coat(rng) -> dict:
+    rough, rot = _roughness(rng, smooth_p=0.3, aniso_p=0.2)
+    c = {"type": "coat", "ior": round(float(rng.uniform(1.3, 1.7)), 3), "roughness": rough, "rotation": rot}
+    u = rng.random()
+    if u < 0.35:  # tinted: absorbing interior
+        c.update(thickness=round(float(rng.uniform(0.2, 1.0)), 3),
+                 sigma_a=[round(float(x), 3) for x in rng.uniform(0.0, 2.0, 3)])
+    elif u < 0.55:  # milky: a scattering interior
+        c.update(thickness=round(float(rng.uniform(0.1, 1.0)), 3),
+                 sigma_a=[round(float(x), 3) for x in rng.uniform(0.0, 0.5, 3)],
+                 sigma_s=[round(float(x), 3) for x in rng.uniform(0.2, 3.0, 3)],
+                 g=round(float(rng.uniform(-0.3, 0.9)), 3))
+    return c
+
+
+def _base(rng) -> dict:
+    u = rng.random()
+    if u < 0.6:
+        name = str(rng.choice(list(metals.measured())))
+        m = metals.measured()[name]
+        rough, rot = _roughness(rng, smooth_p=0.2, aniso_p=0.3)
+        return {"type": "conductor", "eta": m["eta"], "k": m["k"], "roughness": rough, "rotation": rot}
+    if u < 0.85:
+        return {"type": "diffuse", "albedo": [round(float(x), 3) for x in rng.uniform(0.1, 0.9, 3)]}
+    rough, rot = _roughness(rng, smooth_p=0.2, aniso_p=0.0)
+    return {"type": "dielectric", "ior": round(float(rng.uniform(1.3, 1.7)), 3), "roughness": rough, "rotation": rot}
+
+
+def draw(count: int = COUNT, seed: int = SEED) -> dict[str, Stack]:
+    """The hold-out stacks, by name (``holdout_00`` ...): the same for the same seed."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for k in range(count):
+        n = int(rng.choice([1, 2, 3], p=[0.5, 0.35, 0.15]))
+        name = f"holdout_{k:02d}"
+        out[name] = Stack.from_dict({"name": name, "layers": [_coat(rng) for _ in range(n)], "base": _base(rng)})
+    return out
+
+
+def compute_references(stacks: dict[str, Stack], spp: int = SPP, albedo_spp: int = 1 << 17, seed: int = 1,
+                       out_dir: Path = HOLDOUT_DIR, progress=print) -> list[Path]:
+    """Energy-conserving references of ``stacks`` at the suite's incidences and 45 degrees, stored as
+    the suite's are (``accuracy.compute_references``) with the stack itself in the meta."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, stack in stacks.items():
+        t0 = time.time()
+        data: dict[str, np.ndarray] = {"wi_degrees": np.array(sorted(suite.REFERENCE_ANGLES))}
+        for i, deg in enumerate(sorted(suite.REFERENCE_ANGLES)):
+            arrays = _angle_arrays(stack, deg, spp, albedo_spp, seed, "multiple")
+            data.update({f"{k}_{i}": v for k, v in arrays.items()})
+        meta = {"case": name, "stack": stack.to_dict(), "spp": spp, "albedo_spp": albedo_spp, "seed": seed,
+                "interfaces": "multiple", "draw_seed": SEED, "command": "lamella bench holdout --references",
+                "seconds": round(time.time() - t0, 1), "machine": platform.machine()}
+        data["meta"] = np.array(json.dumps(meta))
+        path = out_dir / f"{name}.npz"
+        np.savez_compressed(path, **data)
+        written.append(path)
+        progress(f"{name}: {meta['seconds']} s -> {path}")
+    return written
+
+
+def stored(ref_dir: Path = HOLDOUT_DIR) -> dict[str, dict]:
+    """The stored hold-out references by name (each with its stack in ``meta``)."""
+    return {p.stem: load_reference(p.stem, ref_dir) for p in sorted(ref_dir.glob("*.npz"))}
+
+
+def describe(stack: Stack) -> str:
+    """One line: the coats top to bottom, then the base."""
+    parts = []
+    for c in stack.coats:
+        a = c.roughness
+        s = f"coat {c.ior:g} a {a[0]:.2g}" + (f"/{a[1]:.2g}" if a[1] != a[0] else "")
+        if c.thickness and max(c.sigma_s) > 0:
+            s += f" scattering d {c.thickness:g}"
+        elif c.thickness and max(c.sigma_a) > 0:
+            s += f" absorbing d {c.thickness:g}"
+        parts.append(s)
+    b = stack.base
+    if b.type == "diffuse":
+        parts.append("diffuse " + "/".join(f"{x:g}" for x in b.albedo))
+    else:
+        a = b.roughness
+        parts.append(f"{b.type} a {a[0]:.2g}" + (f"/{a[1]:.2g}" if a[1] != a[0] else ""))
+    return ", ".join(parts)
+
+
+def run(ref_dir: Path = HOLDOUT_DIR, out_dir: Path = BENCH_DIR, models=MODELS) -> tuple[Path, Path]:
+    """Every model against the stored hold-out references: bench/holdout.md and .json."""
+    refs = stored(ref_dir)
+    if not refs:
+        raise FileNotFoundError(f"no hold-out references in {ref_dir}: run `lamella bench holdout --references`")
+    rows = []
+    for name, ref in refs.items():
+        stack = Stack.from_dict(ref["meta"]["stack"])
+        rows.extend(evaluate_case(name, ref, models, stack=stack))
+    wis = sorted({r["wi"] for r in rows})
+    out_dir.mkdir(parents=True, exist_ok=True)
+    jpath = out_dir / "holdout.json"
+    jpath.write_text(json.dumps({"models": list(models), "rows": rows}, indent=1) + "\n")
+    lines = ["# The models on stacks drawn at random (the hold-out set)", "",
+             f"`lamella bench holdout`: {len(refs)} stacks drawn once from the ranges artists use "
+             f"(`lamella.bench.holdout.draw`, seed {SEED}), never used to tune a model, against "
+             "energy-conserving references (multiple-scattering interfaces, "
+             f"{refs[next(iter(refs))]['meta']['spp']} walkers per direction, `tests/references/brdf_holdout`). "
+             "Relative L1 / albedo error, reflected side, as in `bench/accuracy.md`.", "",
+             "## Median over the set", ""]
+    from .accuracy import median_table
+    lines += median_table(rows, models, wis)
+    lines += ["", "## Per stack (`auto`; `noise`: the reference's own noise on the metric)", "",
+              "| stack | " + " | ".join(f"{w:g}°" for w in wis) + " |", "|---|" + "---|" * len(wis)]
+    for name, ref in refs.items():
+        stack = Stack.from_dict(ref["meta"]["stack"])
+        cells = []
+        for w in wis:
+            r = next((r for r in rows if r["case"] == name and r["model"] == "auto" and r["wi"] == w), None)
+            cells.append(f"{r['rel_l1']:.3f} / {r['albedo_err']:.3f} (noise {r['ref_noise']:.3f})"
+                         if r and "rel_l1" in r else "—")
+        lines.append(f"| {name}: {describe(stack)} | " + " | ".join(cells) + " |")
+    mpath = out_dir / "holdout.md"
+    mpath.write_text("\n".join(lines) + "\n")
+    return mpath, jpath

@@ -1,0 +1,44 @@
+"""The hold-out set (`lamella bench holdout`): stacks drawn once at random, never tuned on; the
+figures recorded in bench/holdout.json guard `auto` against changes that fit the suite and lose
+elsewhere. A deliberate model change re-records them with `lamella bench holdout`."""
+import json
+
+import numpy as np
+import pytest
+
+from lamella.bench import BENCH_DIR, holdout
+from lamella.core.stack import Stack
+
+RECORDED = BENCH_DIR / "holdout.json"
+
+
+@pytest.fixture(scope="module")
+def refs():
+    return holdout.stored()
+
+
+def test_stored_references_are_the_drawn_stacks(refs):
+    drawn = holdout.draw()
+    assert set(refs) == set(drawn)
+    for name, ref in refs.items():
+        assert ref["meta"]["stack"] == drawn[name].to_dict(), name
+        assert ref["meta"]["interfaces"] == "multiple"
+
+
+def test_auto_on_the_holdout_set_keeps_its_recorded_figures(refs):
+    """Each figure within 10 % of the recorded one, and each incidence's median and mean within 2 %:
+    the numpy model is deterministic, so only a model change moves them."""
+    from lamella.bench.accuracy import evaluate_case
+
+    then = {(r["case"], r["wi"]): r for r in json.loads(RECORDED.read_text())["rows"] if r["model"] == "auto"}
+    now = {}
+    for name, ref in refs.items():
+        for r in evaluate_case(name, ref, ("auto",), stack=Stack.from_dict(ref["meta"]["stack"])):
+            now[(name, r["wi"])] = r
+    assert set(now) == set(then)
+    for key, r in now.items():
+        assert r["rel_l1"] <= then[key]["rel_l1"] * 1.10, (key, r["rel_l1"], then[key]["rel_l1"])
+    for wi in sorted({k[1] for k in now}):
+        a = [now[k]["rel_l1"] for k in now if k[1] == wi]
+        b = [then[k]["rel_l1"] for k in then if k[1] == wi]
+        assert np.median(a) <= np.median(b) * 1.02 and np.mean(a) <= np.mean(b) * 1.02, (wi, np.median(a), np.median(b))
