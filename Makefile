@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test package test-blender-versions bench-accuracy bench-images bench-recompile bench-nodes references references-multiple references-pending image-references luts clean
+.PHONY: setup demo test package test-blender-versions bench-accuracy bench-holdout bench-images bench-recompile bench-nodes references references-multiple references-pending image-references luts clean
 
 setup: $(STAMP)
 
@@ -45,6 +45,9 @@ test-blender-versions:
 
 bench-accuracy: setup
 	$(VENV)/bin/lamella bench accuracy
+
+bench-holdout: setup
+	$(VENV)/bin/lamella bench holdout
 
 # The stored BRDF references (about 50 min on 2 cores for the interface cases, 4-12 min more per
 # medium case on one core): cases with a narrow exit interface need more walkers to keep the noise
