@@ -279,6 +279,12 @@ def _add_interface(ops, variant, mapping, index, sx, sy, n_above, interface, j12
     return e, w, new_spreads, Lobe(m_R0i, lax, lay, lrot)
 
 
+def _at_least(ops, d: RGB, bound: RGB) -> RGB:
+    """The denominator ``d`` of an adding equation, never below its physical lower ``bound`` (nor
+    below 1e-7)."""
+    return RGB(*(ops.max(ops.max(x, b), 1e-7) for x, b in zip(d, bound)))
+
+
 def _adding_energies(ops, interface, added: _Added, tir, A0i):
     """The adding equations on energies (Listing 3 lines 46-57; Randrianandrasana et al. 2021
     Eqs. 1-2 and 10) for an interface (R12, T12, R21, T21) below ``added``: the new statistics, the
@@ -296,10 +302,13 @@ def _adding_energies(ops, interface, added: _Added, tir, A0i):
         # (Ti0 holds the way up); the TIR reflection itself loses nothing
         Ri0_seen = Ri0 + Ti0 * A0i * (1.0 - tir)
         Ti0_seen = Ti0 * tir
-    m_R0i = T0i * R12 * Ti0_seen / (1.0 - Ri0_seen * R12).map(lambda d: ops.max(d, 1e-7))
+    # 1 - Ri0 R12 >= (1 - R12) + R12 Ti0, as Ri0 + Ti0 <= 1: rounding can break the bound when
+    # the stack above reflects almost everything back down (from below at the critical angle) and
+    # the lobe then carried more than the light that reached the interface (float32: 1.00001 of it)
+    m_R0i = T0i * R12 * Ti0_seen / _at_least(ops, 1.0 - Ri0_seen * R12, (1.0 - R12) + R12 * Ti0_seen)
 
     # Multiple scattering forms (Listing 3, lines 46-51)
-    denom = (1.0 - Ri0 * R12).map(lambda d: ops.max(d, 1e-7))
+    denom = _at_least(ops, 1.0 - Ri0 * R12, (1.0 - R12) + R12 * Ti0)
     m_Ri0 = T21 * Ri0 * T12 / denom
     m_Rr = Ri0 * R12 / denom
 
