@@ -304,11 +304,13 @@ def _adding_energies(ops, interface, added: _Added, tir, A0i):
         Ti0_seen = Ti0 * tir
     # 1 - Ri0 R12 >= (1 - R12) + R12 Ti0, as Ri0 + Ti0 <= 1: rounding can break the bound when
     # the stack above reflects almost everything back down (from below at the critical angle) and
-    # the lobe then carried more than the light that reached the interface (float32: 1.00001 of it)
+    # the lobe then carried more than the light that reached the interface (float32: 1.00001 of it).
+    # (Bounding ``denom`` below as well put a kink into the energies that the node group's tables
+    # over linked parameters could not follow.)
     m_R0i = T0i * R12 * Ti0_seen / _at_least(ops, 1.0 - Ri0_seen * R12, (1.0 - R12) + R12 * Ti0_seen)
 
     # Multiple scattering forms (Listing 3, lines 46-51)
-    denom = _at_least(ops, 1.0 - Ri0 * R12, (1.0 - R12) + R12 * Ti0)
+    denom = (1.0 - Ri0 * R12).map(lambda d: ops.max(d, 1e-7))
     m_Ri0 = T21 * Ri0 * T12 / denom
     m_Rr = Ri0 * R12 / denom
 
