@@ -12,9 +12,9 @@ from lamella.core.backends import lobe_budget  # noqa: E402
 from lamella.core.backends.staging import stage  # noqa: E402
 
 
-def _furnace_centre(build, res: int = 16) -> np.ndarray:
+def _furnace_centre(build, res: int = 16, spp: int = 64) -> np.ndarray:
     """The centre 2 x 2 pixels: views within a few degrees of the normal at 32 px."""
-    sc, sphere = build_scene("white-furnace", res, 64)
+    sc, sphere = build_scene("white-furnace", res, spp)
     sc.cycles.max_bounces = 0
     build(sphere)
     px, _ = render_scene(sc)
@@ -47,15 +47,21 @@ def test_cycles_osl_drops_closures_beyond_seventeen():
     assert lobe_budget.MAX_CLOSURES <= 17
 
 
+# 16 closures, many of them rough: at 64 samples the centre's four pixels scatter by -4 % to +1 % of
+# the albedo between seeds (0, 1, 2), at 1024 within 0.4 %
+FURNACE_SPP = 1024
+
+
 def test_a_stack_with_more_lobes_than_closures_renders_its_energy():
     from lamella.bench.recompile import _stack
 
     stack = _stack("8 coats + media", None)
     st = stage(stack, budget="all")
     assert st.lobes_all > lobe_budget.MAX_CLOSURES >= len(st.closures)
-    got = _furnace_centre(lambda sphere: assign_material(sphere, stack, "cycles-osl", budget="all"), res=32)
+    got = _furnace_centre(lambda sphere: assign_material(sphere, stack, "cycles-osl", budget="all"), res=32,
+                          spp=FURNACE_SPP)
     want = api.albedo(stack, np.array([[0.0, 0.0, 1.0]]))[0]
-    # measured 0.6 % of the largest channel (16 closures); with 27 closures Cycles drew 0.33 of 0.48
+    # measured 0.4 % of the largest channel (16 closures); with 27 closures Cycles drew 0.33 of 0.48
     assert np.abs(got - want).max() < 0.02 * want.max(), (got, want)
 
 
@@ -70,6 +76,7 @@ def test_a_textured_stack_with_more_live_lobes_than_closures_renders_its_energy(
     live = textured_sockets(stack)
     st = stage(stack, live=live)
     assert st.lobes_all > lobe_budget.MAX_CLOSURES >= len(st.closures)
-    got = _furnace_centre(lambda sphere: assign_material(sphere, stack, "cycles-osl", live=live), res=32)
+    got = _furnace_centre(lambda sphere: assign_material(sphere, stack, "cycles-osl", live=live), res=32,
+                          spp=FURNACE_SPP)
     want = api.albedo(stack, np.array([[0.0, 0.0, 1.0]]))[0]
     assert np.abs(got - want).max() < 0.02 * want.max(), (got, want)

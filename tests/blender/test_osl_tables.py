@@ -28,6 +28,7 @@ READS = {
     "tir": 'lamella_lut3(concat(dir, "/tir.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "fresnel_hat_delta": 'lamella_lut3(concat(dir, "/fresnel_hat_delta.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "dielectric_rough_reflect": 'lamella_lut3(concat(dir, "/dielectric_rough_reflect.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "dielectric_trapped_escape": 'lamella_lut3(concat(dir, "/dielectric_trapped_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
 }
 
 

@@ -110,23 +110,31 @@ def test_absorption_is_split_over_nested_volumes():
 
 
 def test_bare_conductor_pins_tangent_rotation_and_axes():
-    """With no coat the model is exact (one GGX lobe of energy FGD), so the reference's conductor
-    sphere and the generated shader must render the same image; this pins the reference's
-    tangent, rotation sense and alpha axes to the shader's. Measured at 64 px, 256 spp: 8x8-tile
-    RMSE 0.0024; the same stack with the rotation mirrored gives 0.148, axes swapped 0.223."""
+    """With no coat the model's GGX lobe is exact, so the reference's conductor sphere and the
+    generated shader render nearly the same image; this pins the reference's tangent, rotation
+    sense and alpha axes to the shader's. Nearly: what the microsurface scatters more than once the
+    models send out as a diffuse lobe, Cycles' energy-conserving sphere (``multi_ggx``) inside the
+    lobe's shape (the walk on the microsurface agrees with neither exactly; against it the diffuse
+    form measures better on isotropic metals, `docs/models.md`). Measured at 64 px, 256 spp:
+    8x8-tile RMSE 0.025 (2.3 % of the light scattered more than once, mean bias +0.041 in this
+    environment; 0.0024 while the models left that light out, against the single-scattering
+    sphere); with the rotation mirrored 0.148, with the axes swapped 0.223."""
     from lamella.core import Stack
-    from lamella.core.image_metrics import block_rmse, mean_bias
+    from lamella.core.image_metrics import block_rmse
 
     d = {"layers": [], "base": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603],
                                 "roughness": [0.02, 0.2], "rotation": 0.5}}
-    ref, _ = render_stack(Stack.from_dict(d), "sphere-env", res=64, spp=256, engine="reference")
+    ref, _ = render_stack(Stack.from_dict(d), "sphere-env", res=64, spp=256, engine="reference",
+                          interfaces="multiple")
     ours, _ = render_stack(Stack.from_dict(d), "sphere-env", res=64, spp=256, engine="cycles-osl")
     d["base"]["rotation"] = -0.5
     mirrored, _ = render_stack(Stack.from_dict(d), "sphere-env", res=64, spp=256, engine="cycles-osl")
+    d["base"]["rotation"], d["base"]["roughness"] = 0.5, [0.2, 0.02]
+    swapped, _ = render_stack(Stack.from_dict(d), "sphere-env", res=64, spp=256, engine="cycles-osl")
     m = ref[..., 3] > 0.999
-    assert block_rmse(ours, ref, m, 8) < 0.01
-    assert abs(mean_bias(ours, ref, m)) < 0.01
-    assert block_rmse(mirrored, ref, m, 8) > 0.05
+    right = block_rmse(ours, ref, m, 8)
+    assert right < 0.04
+    assert block_rmse(mirrored, ref, m, 8) > 3.0 * right and block_rmse(swapped, ref, m, 8) > 3.0 * right
 
 
 # ----------------------------------------------------------------- media, diffuse and glass cores

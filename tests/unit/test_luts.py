@@ -16,7 +16,7 @@ def test_stored_tables_have_their_shape_and_range(name):
     t = luts.table(name)
     assert t.shape == luts.SPECS[name].shape and t.dtype == np.float32
     assert np.isfinite(t).all()
-    if name in ("ggx_albedo", "tir", "ggx_refract_albedo", "dielectric_rough_reflect"):
+    if name in ("ggx_albedo", "tir", "ggx_refract_albedo", "dielectric_rough_reflect", "dielectric_trapped_escape"):
         assert (t >= 0).all() and (t <= 1).all()
 
 
@@ -36,6 +36,42 @@ def test_stored_rough_dielectric_table_matches_the_generator(cell):
     s = luts.ms_sine(i / (luts.N_MS_X - 1.0), eta)
     assert luts.table("dielectric_rough_reflect")[i, j, k] == pytest.approx(
         luts.dielectric_rough_reflect_cell(s, alpha, eta), abs=1e-6)
+
+
+@pytest.mark.parametrize("cell", [(3, 5, 2), (20, 9, 4), (24, 12, 3), (31, 15, 0), (40, 7, 1)])
+def test_stored_trapped_escape_table_matches_the_generator(cell):
+    """Cells of ``dielectric_trapped_escape`` recomputed by its generator's own two walks."""
+    i, j, k = cell
+    alpha, eta = float(luts._alpha_nodes(luts.N_MS_ALPHA)[j]), float(luts._ms_eta_nodes(luts.N_MS_ETA)[k])
+    s = luts.ms_sine(i / (luts.N_MS_X - 1.0), eta)
+    assert luts.table("dielectric_trapped_escape")[i, j, k] == pytest.approx(
+        luts.dielectric_trapped_escape_cell(s, alpha, eta), abs=1e-6)
+
+
+def test_trapped_escape_is_exact_in_its_limits_and_traps_from_the_denser_side():
+    """A smooth interface sends what it reflects back along the way it came: the trapped light
+    crosses as easily as the first time (the table at alpha 0 and the model's look-up near it); an
+    index-matched interface lets everything through. From the denser side, past alpha 0.05, what
+    a rough interface reflected crosses on its next arrival less easily than light arriving for
+    the first time."""
+    from lamella.core.microsurface import _fresnel_dielectric
+    from lamella.core.models.fgd import trapped_escape
+
+    t = luts.table("dielectric_trapped_escape")
+    r = luts.table("dielectric_rough_reflect")
+    etas = luts._ms_eta_nodes(luts.N_MS_ETA)
+    s = np.array([[luts.ms_sine(i / (luts.N_MS_X - 1.0), e) for e in etas] for i in range(luts.N_MS_X)])
+    f = _fresnel_dielectric(np.maximum(np.sqrt(1.0 - s * s), luts.MU_FLOOR), np.broadcast_to(etas, s.shape))
+    np.testing.assert_allclose(t[:, 0, :], 1.0 - f, atol=1e-6)
+    assert (t[:, 1:, luts.N_MS_ETA // 2] == 1.0).all()
+    ops = NumpyOps()
+    mu = np.linspace(0.01, 1.0, 97)
+    for e in (1 / 1.7, 1 / 1.5, 1.5):
+        np.testing.assert_allclose(trapped_escape(ops, mu, np.zeros_like(mu), e), 1.0 - fresnel_dielectric(ops, mu, e),
+                                   atol=1e-6)
+    inside = slice(0, int(luts.MS_KNEE * (luts.N_MS_X - 1)))  # up to the critical angle
+    denser = etas < 0.9
+    assert (t[inside, 4:, :][..., denser] < 1.0 - r[inside, 4:, :][..., denser]).all()
 
 
 def test_rough_dielectric_table_is_exact_in_its_limits():

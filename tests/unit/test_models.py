@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import lamella.core as lc
+from lamella.core import reference
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.models import variant
 from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
@@ -118,16 +119,21 @@ def exact_conductor_albedo(w, ax, ay, rotation, n=400):
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("alpha", [0.05, 0.3])
 def test_conductor_alone_is_that_conductor(model, alpha):
-    """No coats: one lobe with the conductor's roughness whose energy is the hemispherical
-    integral of the exact microfacet BRDF (table error measured at <= 0.4 % up to 60 deg)."""
+    """No coats: a lobe with the conductor's roughness whose energy is the hemispherical integral
+    of the exact microfacet BRDF (table error measured at <= 0.4 % up to 60 deg), and a diffuse
+    lobe with what the microsurface scatters more than once: together what the energy-conserving
+    random walk on that microsurface reflects (Heitz et al. 2016; measured within 0.3 % at alpha
+    0.3 in red and green, 2.2 % in blue at 60 deg; single scattering alone is 10-17 % short)."""
     d = stack(base=gold(alpha))
     wi = directions([0.0, 30.0, 60.0])
     lb = lc.lobes(d, wi, model)
-    assert lb.weight.shape == (3, 1, 3)
-    np.testing.assert_allclose(lb.alpha_x, alpha, rtol=1e-9)
-    np.testing.assert_allclose(lb.alpha_y, alpha, rtol=1e-9)
+    assert lb.weight.shape == (3, 2, 3) and lb.kinds == ("reflection", "diffuse")
+    np.testing.assert_allclose(lb.alpha_x[:, 0], alpha, rtol=1e-9)
+    np.testing.assert_allclose(lb.alpha_y[:, 0], alpha, rtol=1e-9)
     for n, w in enumerate(wi):
         np.testing.assert_allclose(lb.weight[n, 0], exact_conductor_albedo(w, alpha, alpha, 0.0), rtol=4e-3)
+        walk, err = reference.albedo(d, w[None], spp=20_000, seed=2, interfaces="multiple")
+        np.testing.assert_array_less(np.abs(lb.weight[n].sum(0) - walk[0]), 0.025 * walk[0] + 4.0 * err[0])
 
 
 def test_anisotropic_conductor_alone_keeps_its_axes_and_energy():
@@ -137,9 +143,9 @@ def test_anisotropic_conductor_alone_keeps_its_axes_and_energy():
     d = stack(base=gold([0.3, 0.05], 0.5))
     wi = directions([0.0, 30.0, 60.0])
     lb = lc.lobes(d, wi, "yamaguchi2019")
-    np.testing.assert_allclose(lb.alpha_x, 0.3, rtol=1e-9)
-    np.testing.assert_allclose(lb.alpha_y, 0.05, rtol=1e-9)
-    np.testing.assert_allclose(lb.rotation, 0.5, rtol=1e-9)
+    np.testing.assert_allclose(lb.alpha_x[:, 0], 0.3, rtol=1e-9)
+    np.testing.assert_allclose(lb.alpha_y[:, 0], 0.05, rtol=1e-9)
+    np.testing.assert_allclose(lb.rotation[:, 0], 0.5, rtol=1e-9)
     for n, w in enumerate(wi):
         tol = 0.04 if n == 2 else 0.015
         np.testing.assert_allclose(lb.weight[n, 0], exact_conductor_albedo(w, 0.3, 0.05, 0.5), rtol=tol)
@@ -215,7 +221,8 @@ def test_yamaguchi_rotates_with_the_interface():
     np.testing.assert_allclose(lb1.weight, lb0.weight, rtol=1e-9)
     np.testing.assert_allclose(lb1.alpha_x, lb0.alpha_x, rtol=1e-9)
     np.testing.assert_allclose(lb1.alpha_y, lb0.alpha_y, rtol=1e-9)
-    np.testing.assert_allclose(np.mod(lb1.rotation - lb0.rotation, np.pi), 0.7, atol=1e-9)
+    rough = [k for k, name in enumerate(lb0.kinds) if name != "diffuse"]
+    np.testing.assert_allclose(np.mod(lb1.rotation[:, rough] - lb0.rotation[:, rough], np.pi), 0.7, atol=1e-9)
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -234,9 +241,10 @@ def test_belcour_medium_operator(model, degrees):
     t = (1.0 + ss * h) * np.exp(-(sa + ss) * h)
     np.testing.assert_allclose(lc.albedo(d, wi, model)[0], t * t, rtol=1e-6)
     lb = lc.lobes(d, wi, model)
-    assert lb.alpha_x[0, -1] > 0.05
+    base = lb.kinds.index("reflection", 1)  # the base's lobe (a mirror: no diffuse light of its own)
+    assert lb.alpha_x[0, base] > 0.05 and np.all(lb.weight[0, base + 1:] == 0.0)
     d["layers"][0]["g"] = 0.99999
-    assert lc.lobes(d, wi, model).alpha_x[0, -1] < 1e-3
+    assert lc.lobes(d, wi, model).alpha_x[0, base] < 1e-3
 
 
 def test_model_names():

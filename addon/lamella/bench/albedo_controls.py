@@ -69,21 +69,22 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
                   f"{' '.join(f'{x:.3f}' for x in r['walk'])} | {' '.join(f'{x:.3f}' for x in r['ratio'])} |")
     md += ["", "Reading it:", "",
            "- A smooth coat over smooth gold is exact at every absorption (the exact limit).",
-           "- Bare rough gold is too dark by what its microsurface scatters more than once, which the model's "
-           "single-scattering FGD leaves out (Kulla and Conty 2017's compensation closes it: a prototype matched "
-           "the walk within 0.3 % at alpha 0.1 and 0.3).",
-           "- A rough coat over a smooth mirror at 60° is too bright (alpha 0.2: 5, 12 and 6 % in R, G, B; 7, 25 "
-           "and 32 % while the models took the coat's reflectance from below equal to its reflectance from "
-           "above): the light the rough coat refracts beyond the escape cone is trapped and meets the gold "
-           "again and again. The coat's whole reflectance from below (`fgd_dielectric(multiple=True)`) "
-           "closed most of it; what is left is the spread of the refracted light at oblique incidence.",
-           "- A rough coat over rough gold is now too dark (alpha 0.2 both, 60°: 12 %): the conductor's "
-           "single-scattering FGD (above) and the coat's trapping both take light away there; Kulla and "
-           "Conty's compensation on the conductor measured worse on the hold-out set (`bench/holdout.md`), "
-           "so it is not in the models.",
-           "- A rough coat over smooth gold under absorption is too bright, more so the more the coat absorbs "
-           "(alpha 0.2, sigma_a 0.2/0.8/0.8: 23 % in R at 60°): Beer-Lambert along the mean direction leaves "
-           "out the longer paths of the light trapped and spread under the coat.", ""]
+           "- Bare rough gold is exact within 2 % up to alpha 0.6: its GGX lobe holds the single-scattering "
+           "FGD and a diffuse lobe what its microsurface scatters more than once (Turquin 2019 with Kulla and "
+           "Conty 2017's mean Fresnel factor, `fgd.conductor_scattered`); single scattering alone was 12 % short "
+           "at alpha 0.3.",
+           "- A rough coat over a smooth mirror at 60° is within 3 % (alpha 0.2): what the coat reflects back "
+           "from below has mostly been turned past the critical angle and comes up through it again less "
+           "easily than the first time (`luts.dielectric_trapped_escape`); counting every round trip as the "
+           "first made it 5, 12 and 6 % too bright, and with the coat's reflectance from below equal to its "
+           "reflectance from above 7, 25 and 32 %.",
+           "- A rough coat over rough gold at 60° is too dark (alpha 0.2 both: 12-15 %): the table of the "
+           "trapped light's escape assumes a mirror below, and a rough base spreads the trapped light anew, "
+           "part of it back into the escape cone.",
+           "- Under absorption the models are too bright where light travels obliquely: over rough gold at "
+           "normal incidence (sigma_a 0.2/0.8/0.8: 9-11 %; Beer-Lambert along the lobe's mean direction leaves "
+           "out the longer paths of its oblique directions), and under a rough coat over a smooth mirror at 60° "
+           "(13 % in R: the trapped light crosses the coat along steep paths).", ""]
     path = out_dir / "albedo_controls.md"
     path.write_text("\n".join(md))
     return path

@@ -47,6 +47,8 @@ _TABLE_ROLES = {
                           "transmission lobe",
     "dielectric_rough_reflect": "what a rough dielectric interface reflects after scattering more than once "
                              "on its microsurface (Heitz et al. 2016): the reflectance from inside a coat",
+    "dielectric_trapped_escape": "how easily the light a rough interface reflects back into a coat comes "
+                                 "through it again (Heitz et al. 2016's walk): light trapped under a coat",
 }
 
 

@@ -26,10 +26,13 @@ def params(ops, prefix: str, base) -> dict:
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:
-    """FGD of the rough conductor with exact complex Fresnel (Randrianandrasana et al. 2021 Eq. 8)."""
-    from ..models.fgd import fgd_conductor
+    """FGD of the rough conductor with exact complex Fresnel (Randrianandrasana et al. 2021 Eq. 8):
+    its GGX lobe; and what its microsurface scatters more than once (``fgd.conductor_scattered``)."""
+    from ..models.fgd import conductor_scattered, fgd_conductor
 
-    return BaseResponse(reflectance=fgd_conductor(ops, mu, alpha, p["eta"] / n_above, p["k"] / n_above))
+    eta, k = p["eta"] / n_above, p["k"] / n_above
+    single = fgd_conductor(ops, mu, alpha, eta, k)
+    return BaseResponse(reflectance=single, scattered=conductor_scattered(ops, mu, alpha, eta, k, single))
 
 
 KIND = layer_kind("conductor", "base", "Conductor", FIELDS, __doc__, params, response)

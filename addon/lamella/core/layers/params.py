@@ -36,10 +36,13 @@ class BaseResponse:
     ``reflectance``: RGB energy of its GGX reflection lobe (the interface's FGD);
     ``transmittance``: RGB energy crossing into the substrate (a transmissive base);
     ``albedo``: RGB Lambertian reflectance of what reaches it (a diffuse base);
+    ``scattered``: RGB energy its microsurface reflects after scattering more than once, which
+    leaves nearly as a Lambertian surface's light does (a rough conductor; Kulla and Conty 2017);
     ``eta``: substrate index over the index above (a transmissive base), for the refracted
     direction and the transmitted spread."""
 
     reflectance: RGB | None = None
     transmittance: RGB | None = None
     albedo: RGB | None = None
+    scattered: RGB | None = None
     eta: object = None

@@ -83,12 +83,20 @@ def interior(ops, p) -> tuple[RGB, RGB | None]:
     return RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd))
 
 
-# Directions of the light a Lambertian base sends up, for ``DiffuseUp``: cosine-weighted light is
-# uniform in u = sin^2 of its angle in the base's medium; Gauss-Legendre nodes on [0, 1] (8 points),
-# used on the escape cone and on the rest of the hemisphere separately (the kink at the critical
-# angle would otherwise fall between nodes).
-_GL8 = tuple(0.5 * (1.0 + s * x) for x in _GL_X for s in (-1.0, 1.0))
-_GL8_W = GAUSS_W
+# Directions of the light a base sends up diffusely, for ``DiffuseUp``: cosine-weighted light is
+# uniform in u = sin^2 of its angle in the base's medium; Gauss-Legendre nodes on [0, 1] (by number
+# of points), used on the escape cone and on the rest of the hemisphere separately (the kink at the
+# critical angle would otherwise fall between nodes).
+# What a rough conductor scatters more than once is a small part of its light: two directions on
+# each side of the critical angle keep its escape through up to eight absorbing coats within 5 %
+# of eight (within 0.3 % of the stack's albedo) at a quarter of the shader's nodes for it.
+SCATTERED_POINTS = 2
+GAUSS_01 = {
+    2: ((0.2113248654051871, 0.7886751345948129), (0.5, 0.5)),
+    4: ((0.0694318442029737, 0.3300094782075719, 0.6699905217924281, 0.9305681557970263),
+        (0.1739274225687269, 0.3260725774312731, 0.3260725774312731, 0.1739274225687269)),
+    8: (GAUSS_MU, GAUSS_W),
+}
 
 
 class DiffuseUp:
@@ -150,13 +158,15 @@ class DiffuseUp:
                 up, back = t * up / denom, r + t * t * back / denom
         return up, back
 
-    def averages(self, ops):
-        """(up, back) averaged over cosine-weighted directions in the base's medium."""
+    def averages(self, ops, points: int = 8):
+        """(up, back) averaged over cosine-weighted directions in the base's medium, ``points``
+        directions (``GAUSS_01``) inside the escape cone and as many beyond it."""
         n_b = self._n
         u_c = ops.min(1.0 / (n_b * n_b), 1.0)  # the escape cone: n_b^2 u < 1
         up, back = RGB.splat(0.0), RGB.splat(0.0)
+        nodes, weights = GAUSS_01[points]
         for lo, width in ((0.0, u_c), (u_c, 1.0 - u_c)):
-            for x, w in zip(_GL8, _GL8_W):
+            for x, w in zip(nodes, weights):
                 u_up, u_back = self._along(ops, n_b * n_b * (lo + width * x))
                 up, back = up + u_up * (w * width), back + u_back * (w * width)
         return up, back
@@ -164,5 +174,11 @@ class DiffuseUp:
     def base_energy(self, ops, e_in: RGB, albedo: RGB) -> RGB:
         """Energy a Lambertian base of ``albedo`` sends out of the top, all orders of bounces
         between the base and the stack above, for energy ``e_in`` reaching it."""
-        up, back = self.averages(ops)
-        return e_in * albedo * up / (1.0 - albedo * back).map(lambda d: ops.max(d, 1e-7))
+        return self.emitted(ops, e_in * albedo, albedo)
+
+    def emitted(self, ops, e_up: RGB, albedo: RGB, points: int = 8) -> RGB:
+        """Energy out of the top for diffuse light ``e_up`` a base sends up, all orders of bounces
+        between the base, which reflects what the stack returns with ``albedo``, and the stack
+        (``points``: of ``averages``)."""
+        up, back = self.averages(ops, points)
+        return e_up * up / (1.0 - albedo * back).map(lambda d: ops.max(d, 1e-7))

@@ -154,7 +154,8 @@ def endf(ops, stack, wi) -> list[Lobe]:
     v_exit = convolve(ops, v1 * d_in * d_in / mu, v2 * 4.0 * eta * eta * c * c / mu, v1 * d_in * d_in / mu)
     sub = v_to_alpha(ops, v_exit / (4.0 * mu))
     out = [Lobe(lobes[0].weight, coat["ax"], coat["ax"], 0.0), Lobe(lobes[1].weight, sub, sub, 0.0)]
-    if len(lobes) > 2:
+    out += [lobe for lobe in lobes[2:] if lobe.kind == "diffuse"]  # a rough conductor's broad light
+    if len(lobes) > 2 and lobes[2].kind == "transmission":
         # Eqs. 23-24: through the coat and the substrate (index n2, refracted cosine c_2)
         n2 = base["ior"]
         e12 = n2 / eta

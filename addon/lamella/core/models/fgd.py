@@ -77,10 +77,59 @@ def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
     return fgd_quadrature(ops, mu, alpha, lambda c: fresnel_dielectric(ops, c, eta))
 
 
+def trapped_escape(ops, mu, alpha, eta):
+    """Of the light a rough dielectric interface reflects back to the side it came from (index n1,
+    eta = n2 / n1, arriving along cosine ``mu``), the share that crosses the interface when a mirror
+    sends it back (the ``dielectric_trapped_escape`` table, from the energy-conserving interface of
+    Heitz, Hanika, d'Eon and Dachsbacher 2016), handing over to the smooth interface's
+    transmittance, where the reflected light comes back along the way it came, as alpha goes to 0
+    (the blend of ``fgd_quadrature``). From the denser side it is far below the transmittance of
+    the first arrival: the reflected light has mostly been turned past the critical angle."""
+    rough = ops.lut("dielectric_trapped_escape", luts.ms_x_to_coord(ops, mu, eta),
+                    luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
+    a = alpha * (1.0 / ALPHA_BLEND)
+    blend = ops.exp(-(a * a))
+    smooth = 1.0 - fresnel_dielectric(ops, mu, eta)
+    return ops.clamp(rough + (smooth - rough) * blend, 0.0, 1.0)
+
+
 def fgd_conductor(ops, mu, alpha, eta: RGB, k: RGB) -> RGB:
     """FGD of a conductor of relative complex index eta + i k, per channel."""
     return RGB(*(fgd_quadrature(ops, mu, alpha, lambda c, e=e, kk=kk: fresnel_conductor(ops, c, e, kk))
                  for e, kk in zip(eta, k)))
+
+
+def fresnel_average(ops, fresnel):
+    """The hemispherical average 2 integral of F(mu) mu d mu of a Fresnel curve ``fresnel(cos)``,
+    exact for its piecewise-linear interpolant over the nodes of the FGD quadrature (so the
+    samples are those ``fgd_quadrature`` takes, shared in a traced shader)."""
+    from .diffuse_transport import HEMI_WEIGHTS
+
+    total = 0.0
+    for c, w in zip(luts.FRESNEL_NODES, HEMI_WEIGHTS):
+        total = total + w * fresnel(c)
+    return ops.clamp(total, 0.0, 1.0)
+
+
+def conductor_scattered(ops, mu, alpha, eta: RGB, k: RGB, single: RGB) -> RGB:
+    """What a rough conductor reflects after scattering more than once on its microsurface, per
+    channel, from its single-scattering FGD ``single``: single F_avg (1 - E) / E, E = GD the albedo
+    with F = 1 and F_avg the hemispherical average of the Fresnel factor (Turquin 2019's
+    compensation, Eq. 13 integrated over the outgoing directions, with Kulla and Conty 2017's
+    F_avg for his F0: the light scattered again meets facets at every angle). A perfect mirror
+    then reflects everything at any roughness. Single scattering loses 12 % at alpha 0.3 and 32 %
+    at alpha 0.5 at normal incidence; against the random walk on the microsurface (Heitz et al.
+    2016) gold of alpha 0.3 at 60 degrees is then within 0.3 % in red and green and 2.2 % short in
+    blue (with F0, 3.1 %). The light leaves broad, and under a coat the models send it up as a Lambertian
+    base's (``diffuse_transport.DiffuseUp``)."""
+    e = gd(ops, mu, alpha)
+    lost = (1.0 - e) / ops.max(e, 1e-4)
+    # With single = F E (F <= 1 a mean Fresnel factor) the total is F E + F F_avg (1 - E) <= 1; but
+    # FGD and GD come from two tables, and for a mirror-like metal (F = 1) FGD may exceed GD in
+    # their last digits: never more than what single scattering leaves
+    return RGB(*(ops.min(s * fresnel_average(ops, lambda c, ee=ee, kk=kk: fresnel_conductor(ops, c, ee, kk)) * lost,
+                         1.0 - s)
+                 for s, ee, kk in zip(single, eta, k)))
 
 
 def tir_fraction(ops, sx, sy, n_inside, alpha):
