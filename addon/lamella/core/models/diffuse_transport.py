@@ -1,102 +1,52 @@
-"""Diffuse light between a Lambertian base and the coats above it (not in the layered-model
-papers; the classical adding of hemispherical reflectances, e.g. van de Hulst 1980, with the
-coats' internal diffuse reflectance as in Kubelka-Munk-type layer models).
+"""Diffuse light between a base that sends light up diffusely and the coats above it: a Lambertian
+base, and what a rough conductor's microsurface scatters more than once (not in the layered-model
+papers; the classical adding of reflectances, e.g. van de Hulst 1980, with a scattering coat's
+internal diffuse reflectance as in Kubelka-Munk-type layer models).
 
 Light a diffuse base sends up is cosine-distributed over the hemisphere of the medium above it.
-Each coat is summarised for such light by hemispherical averages of its energies:
-
-* an interface from index n1 onto n2: R_d(n2 / n1) = integral of F(mu) 2 mu d mu (exact Fresnel,
-  total internal reflection included from the dense side), T_d = 1 - R_d on each side; computed as
-  the Fresnel quadrature of ``fgd.py`` integrated over the hemisphere (weights of the cosine
-  nodes' hat functions, exact for the piecewise-linear Fresnel curve); the interface roughness is
-  neglected (it redistributes diffuse light but hardly changes its hemispherical average);
-* an absorbing interior of optical depth tau (normal incidence): T_d(tau) = 2 E3(tau) =
-  integral of exp(-tau / mu) 2 mu d mu, by 8-point Gauss-Legendre quadrature;
-* a scattering interior: the Kubelka-Munk slab of the six-flux model (``homogeneous_medium``) over
-  twice the thickness, the mean path of cosine-distributed light.
-
-``DiffuseUp`` sums the stack above a diffuse base for the light it sends up, direction by
-direction (each with its own Fresnel factors and path lengths; the averages above are what a
-scattering interior and the coats' own diffuse reflectance use): the transmittance ``up`` of the
-whole stack above and its reflectance ``back`` (light going up that the stack returns, by
-reflections and total internal reflection). The base then sends out ``e_in A up / (1 - A back)``
-(all orders of base-coat bounces), e_in the energy that reached it.
+``DiffuseUp`` sums the stack above for that light direction by direction (each direction keeps
+n sin(theta) through smooth interfaces, so it has its own exact Fresnel factors, total internal
+reflection included, and its own path lengths d / cos in every absorbing interior): the
+transmittance ``up`` of the whole stack above and its reflectance ``back`` (light going up that the
+stack returns, by reflections and total internal reflection). The interface roughness is neglected
+(it redistributes diffuse light but hardly changes its averages). A scattering interior is taken as
+diffuse both ways: the Kubelka-Munk slab of the six-flux model (``homogeneous_medium``) over twice
+the thickness, the mean path of cosine-distributed light, the same for every direction. The base
+then sends out ``e A up / (1 - A back)`` (all orders of base-coat bounces) for the energy e that
+reached it.
 """
 from __future__ import annotations
 
-from .. import luts
 from .fresnel import fresnel_dielectric
 from .rgb import RGB
 
-
-def _hat_hemispherical_weights(nodes) -> tuple[float, ...]:
-    """w_j = integral over [0, 1] of h_j(mu) 2 mu d mu for the hat functions over ``nodes``."""
-    out = []
-    for j in range(len(nodes)):
-        w = 0.0
-        if j > 0:  # rising part on [a, b]: (mu - a) / (b - a)
-            a, b = nodes[j - 1], nodes[j]
-            w += 2.0 / (b - a) * ((b ** 3 - a ** 3) / 3.0 - a * (b * b - a * a) / 2.0)
-        if j + 1 < len(nodes):  # falling part: (b - mu) / (b - a)
-            a, b = nodes[j], nodes[j + 1]
-            w += 2.0 / (b - a) * (b * (b * b - a * a) / 2.0 - (b ** 3 - a ** 3) / 3.0)
-        out.append(w)
-    return tuple(out)
-
-
-HEMI_WEIGHTS = _hat_hemispherical_weights(luts.FRESNEL_NODES)
-
-# 8-point Gauss-Legendre on [0, 1] (nodes, weights)
+# Gauss-Legendre on [0, 1] by number of points (nodes, weights)
 _GL_X = (0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363)
 _GL_W = (0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763)
-GAUSS_MU = tuple(0.5 * (1.0 + s * x) for x in _GL_X for s in (-1.0, 1.0))
-GAUSS_W = tuple(0.5 * w for w in _GL_W for _ in (-1.0, 1.0))
-
-
-def diffuse_fresnel(ops, eta):
-    """Hemispherical (cosine-weighted) average of the exact Fresnel reflectance, light from index
-    n1 onto n2, eta = n2 / n1."""
-    total = 0.0
-    for c, w in zip(luts.FRESNEL_NODES, HEMI_WEIGHTS):
-        total = total + w * fresnel_dielectric(ops, c, eta)
-    return ops.clamp(total, 0.0, 1.0)
-
-
-def diffuse_transmittance(ops, tau):
-    """2 E3(tau): the fraction of cosine-distributed light crossing a slab of normal optical depth
-    tau (>= 0) unabsorbed. Each term decays, so any tau is finite (0 for tau -> inf)."""
-    total = 0.0
-    for mu, w in zip(GAUSS_MU, GAUSS_W):
-        total = total + (w * 2.0 * mu) * ops.exp(-tau * (1.0 / mu))
-    return total
-
-
-def interior(ops, p) -> tuple[RGB, RGB | None]:
-    """Diffuse transmittance and (if it scatters) reflectance of a coat's interior, from its
-    backend parameters ``p`` (``thickness``, ``sigma_a``, ``sigma_s``, ``g``)."""
-    from .homogeneous_medium import slab
-
-    sig_a = p.get("sigma_a", RGB.splat(0.0))
-    if "sigma_s" not in p:
-        return sig_a.map(lambda s: diffuse_transmittance(ops, s * p["thickness"])), None
-    kd = [slab(ops, sa, ss, p["g"], 2.0 * p["thickness"]) for sa, ss in zip(sig_a, p["sigma_s"])]
-    return RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd))
-
-
-# Directions of the light a base sends up diffusely, for ``DiffuseUp``: cosine-weighted light is
-# uniform in u = sin^2 of its angle in the base's medium; Gauss-Legendre nodes on [0, 1] (by number
-# of points), used on the escape cone and on the rest of the hemisphere separately (the kink at the
-# critical angle would otherwise fall between nodes).
-# What a rough conductor scatters more than once is a small part of its light: two directions on
-# each side of the critical angle keep its escape through up to eight absorbing coats within 5 %
-# of eight (within 0.3 % of the stack's albedo) at a quarter of the shader's nodes for it.
-SCATTERED_POINTS = 2
 GAUSS_01 = {
     2: ((0.2113248654051871, 0.7886751345948129), (0.5, 0.5)),
     4: ((0.0694318442029737, 0.3300094782075719, 0.6699905217924281, 0.9305681557970263),
         (0.1739274225687269, 0.3260725774312731, 0.3260725774312731, 0.1739274225687269)),
-    8: (GAUSS_MU, GAUSS_W),
+    8: (tuple(0.5 * (1.0 + s * x) for x in _GL_X for s in (-1.0, 1.0)),
+        tuple(0.5 * w for w in _GL_W for _ in (-1.0, 1.0))),
 }
+# The directions of ``DiffuseUp``: cosine-weighted light is uniform in u = sin^2 of its angle in the
+# base's medium; the nodes are used on the escape cone and on the rest of the hemisphere separately
+# (the kink at the critical angle would otherwise fall between nodes). What a rough conductor
+# scatters more than once is a small part of its light: two directions on each side of the
+# critical angle keep its escape through up to eight absorbing coats within 5 % of eight (within
+# 0.3 % of the stack's albedo) at a quarter of the shader's nodes for it.
+SCATTERED_POINTS = 2
+
+
+def scattering_interior(ops, p) -> tuple[RGB, RGB]:
+    """Diffuse transmittance and reflectance of a scattering coat's interior, from its backend
+    parameters ``p`` (``thickness``, ``sigma_a``, ``sigma_s``, ``g``)."""
+    from .homogeneous_medium import slab
+
+    sig_a = p.get("sigma_a", RGB.splat(0.0))
+    kd = [slab(ops, sa, ss, p["g"], 2.0 * p["thickness"]) for sa, ss in zip(sig_a, p["sigma_s"])]
+    return RGB(*(x[2] for x in kd)), RGB(*(x[1] for x in kd))
 
 
 class DiffuseUp:
@@ -129,12 +79,11 @@ class DiffuseUp:
 
     def add_medium(self, ops, p):
         """The interior of the coat just added, from its backend parameters ``p``."""
-        t, r = interior(ops, p)
-        if r is None:
+        if "sigma_s" in p:
+            self._steps.append(("scattering", *scattering_interior(ops, p)))
+        else:
             tau = p.get("sigma_a", RGB.splat(0.0)).map(lambda s: s * p["thickness"])
             self._steps.append(("absorbing", self._n, tau))
-        else:
-            self._steps.append(("scattering", t, r))
 
     def _along(self, ops, s2):
         """(up, back) of the stack for light going up with n^2 sin^2 = s2 (RGB)."""

@@ -99,12 +99,28 @@ def fgd_conductor(ops, mu, alpha, eta: RGB, k: RGB) -> RGB:
                  for e, kk in zip(eta, k)))
 
 
+def _hat_hemispherical_weights(nodes) -> tuple[float, ...]:
+    """w_j = integral over [0, 1] of h_j(mu) 2 mu d mu for the hat functions over ``nodes``."""
+    out = []
+    for j in range(len(nodes)):
+        w = 0.0
+        if j > 0:  # rising part on [a, b]: (mu - a) / (b - a)
+            a, b = nodes[j - 1], nodes[j]
+            w += 2.0 / (b - a) * ((b ** 3 - a ** 3) / 3.0 - a * (b * b - a * a) / 2.0)
+        if j + 1 < len(nodes):  # falling part: (b - mu) / (b - a)
+            a, b = nodes[j], nodes[j + 1]
+            w += 2.0 / (b - a) * (b * (b * b - a * a) / 2.0 - (b ** 3 - a ** 3) / 3.0)
+        out.append(w)
+    return tuple(out)
+
+
+HEMI_WEIGHTS = _hat_hemispherical_weights(luts.FRESNEL_NODES)
+
+
 def fresnel_average(ops, fresnel):
     """The hemispherical average 2 integral of F(mu) mu d mu of a Fresnel curve ``fresnel(cos)``,
     exact for its piecewise-linear interpolant over the nodes of the FGD quadrature (so the
     samples are those ``fgd_quadrature`` takes, shared in a traced shader)."""
-    from .diffuse_transport import HEMI_WEIGHTS
-
     total = 0.0
     for c, w in zip(luts.FRESNEL_NODES, HEMI_WEIGHTS):
         total = total + w * fresnel(c)
