@@ -4,8 +4,8 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
 
 ``ggx_albedo`` (2D, cos_i x alpha): GD, the directional albedo with F = 1 (the lobe normaliser
   of Randrianandrasana et al. 2021 Eq. 38).
-``fresnel_hat_delta`` (3D, cos_i x alpha x node j): FGD (Randrianandrasana et al. 2021 Eq. 8) of
-  *any* Fresnel curve as a quadrature over Fresnel samples. Writing the curve as its piecewise-linear interpolant over the
+``fresnel_hat_delta`` (3D, cos_i x alpha x node j): FGD (Randrianandrasana et al. 2021
+  Eq. 8) of *any* Fresnel curve as a quadrature over Fresnel samples. Writing the curve as its piecewise-linear interpolant over the
   cosine nodes c_j (hat functions h_j), FGD(mu, alpha) ~ sum_j F(c_j) W_j(mu, alpha), W_j the
   albedo integral of h_j(wi.h). The table stores W_j(mu, alpha) - h_j(mu) (zero at alpha = 0, smooth
   in mu). ``models/fgd.py`` adds back the exact smooth value, so conductors (complex index given at

@@ -27,6 +27,12 @@ def gd(ops, mu, alpha):
 ALPHA_BLEND = 0.02
 
 
+def _smooth_weight(ops, alpha):
+    """exp(-(alpha / ALPHA_BLEND)^2): the weight of the smooth interface's exact value."""
+    a = alpha * (1.0 / ALPHA_BLEND)
+    return ops.exp(-(a * a))
+
+
 def _hat(ops, mu, j):
     left, right = luts.hat(mu, j)
     if left is None:
@@ -50,9 +56,7 @@ def fgd_quadrature(ops, mu, alpha, fresnel):
         h = _hat(ops, mu, j)
         rough = rough + f * (ops.lut("fresnel_hat_delta", cm, ca, j / (n - 1.0)) + h)
         interp = interp + f * h
-    a = alpha * (1.0 / ALPHA_BLEND)
-    blend = ops.exp(-(a * a))
-    return ops.clamp(rough + (fresnel(mu) - interp) * blend, 0.0, 1.0)
+    return ops.clamp(rough + (fresnel(mu) - interp) * _smooth_weight(ops, alpha), 0.0, 1.0)
 
 
 def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
@@ -71,9 +75,7 @@ def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
     if multiple:
         rough = ops.lut("dielectric_rough_reflect", luts.ms_x_to_coord(ops, mu, eta),
                         luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
-        a = alpha * (1.0 / ALPHA_BLEND)
-        blend = ops.exp(-(a * a))
-        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * blend, 0.0, 1.0)
+        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * _smooth_weight(ops, alpha), 0.0, 1.0)
     return fgd_quadrature(ops, mu, alpha, lambda c: fresnel_dielectric(ops, c, eta))
 
 
@@ -87,10 +89,8 @@ def trapped_escape(ops, mu, alpha, eta):
     the first arrival: the reflected light has mostly been turned past the critical angle."""
     rough = ops.lut("dielectric_trapped_escape", luts.ms_x_to_coord(ops, mu, eta),
                     luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
-    a = alpha * (1.0 / ALPHA_BLEND)
-    blend = ops.exp(-(a * a))
     smooth = 1.0 - fresnel_dielectric(ops, mu, eta)
-    return ops.clamp(rough + (smooth - rough) * blend, 0.0, 1.0)
+    return ops.clamp(rough + (smooth - rough) * _smooth_weight(ops, alpha), 0.0, 1.0)
 
 
 def fgd_conductor(ops, mu, alpha, eta: RGB, k: RGB) -> RGB:
