@@ -227,15 +227,12 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         ops.set_scope(f"coat{index}")
         n12 = p["ior"] / n_above
         alpha = rms_alpha(ops, p["ax"], p["ay"])
-        R, T, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1)
+        R, T, R21, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1)
         alpha_next = _next_alpha(ops, coats, base, index)
         # escape back into the medium above, at the spread of the light the next interface sends up
         alpha_up = hg.alpha_of_g(ops, g1_new * hg.g_of_alpha(ops, alpha_next))
         tir = tir_fraction(ops, sx / n12, sy / n12, n12, alpha_up)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
-        # from below the primary sees the interface's whole reflectance, as in ``adding_doubling``
-        R21 = ops.select(n12 * n12 - 1.0 + cti * cti > 0.0,
-                         fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True), 1.0)
         ru, tu = R21 + (1.0 - R21) * (1.0 - tir), (1.0 - R21) * tir
         ups = {P: (ru, tu)}
         if n > 1:
@@ -281,7 +278,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
                                             SCATTERED_POINTS),
                               0.0, 0.0, 0.0, "diffuse"))
     else:
-        R, T, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1)
+        R, T, _, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
         ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), {}, {})
         cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n), {}, {})
@@ -302,12 +299,14 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
 
 def _interface(ops, cti, alpha, n12, g1):
     """Energies and asymmetries of a rough dielectric interface at the mean direction cosine cti
-    from index n1 onto n2 = n1 n12: (R, T, cos of the refracted mean direction, g_R, first-order
-    g of the transmitted primary, Eq. 22)."""
+    from index n1 onto n2 = n1 n12: (R, T from above, R21 from below along the refracted mean
+    direction (the interface's whole reflectance, as ``adding_doubling`` takes it), cos of the
+    refracted mean direction, g_R, first-order g of the transmitted primary, Eq. 22)."""
     cos2_num = n12 * n12 - 1.0 + cti * cti
     transmits = cos2_num > 0.0
     ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
     R = ops.select(transmits, fgd_dielectric(ops, cti, alpha, n12), 1.0)
+    R21 = ops.select(transmits, fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True), 1.0)
     # Belcour 2018's fake-refraction scale at normal incidence, as the adding-doubling models use
     # it: a facet tilt d deviates a refracted ray by d |1 - 1 / n12|, a reflected one by 2 d, so the
     # refracted lobe is a reflection lobe of roughness alpha |n12 - 1| / (2 n12). (The scale of
@@ -315,7 +314,7 @@ def _interface(ops, cti, alpha, n12, g1):
     # reflected one: relative L1 1.2 on frosted_metal at normal incidence, against 0.19.)
     s = 0.5 * ops.abs(n12 - 1.0) / n12
     g_t1 = hg.transmitted_g(ops, g1, 1.0 / n12) * hg.g_of_alpha(ops, ops.min(s * alpha, 1.0))
-    return R, 1.0 - R, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
+    return R, 1.0 - R, R21, ctt, hg.g_of_alpha(ops, alpha), ops.select(transmits, g_t1, 0.0)
 
 
 def _next_alpha(ops, coats, base, index):
