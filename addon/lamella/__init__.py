@@ -1,4 +1,4 @@
-"""Lamella: physically based layered materials for Blender (see DESIGN.md).
+"""Lamella: physically based layered materials for Blender (see docs/design.md).
 
 ``lamella.core`` is pure numpy and imports without bpy; ``lamella.blender`` holds everything bpy.
 """

@@ -1,4 +1,5 @@
-"""The `lamella` command (DESIGN.md): lobes, plot, luts, references, bench, demo.
+"""The `lamella` command (docs/design.md): lobes, plot, luts, references, bench, demo, render, export-osl,
+apply, stack-format.
 
 Every stack argument is a JSON file (or a suite case name); a bad stack prints the StackError
 (which names the layer and field) and exits with status 2.
@@ -348,6 +349,17 @@ def _write_png(path: Path, rgb01: np.ndarray) -> None:
     plt.imsave(path, np.ascontiguousarray(rgb01, dtype=np.float64))
 
 
+def cmd_stack_format(args) -> int:
+    from .stack_format_page import render, write
+
+    if args.out:
+        write(args.out)
+        print(f"wrote {args.out}")
+    else:
+        print(render(), end="")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="lamella", description="Lamella layered materials: models, references, benchmarks")
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -470,6 +482,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plots", action="store_true", help="also write BRDF slice plots against the reference")
     p.add_argument("--spp", type=int, default=256, help="reference walkers per direction of the slice plots")
     p.set_defaults(fn=cmd_demo)
+
+    p = sub.add_parser("stack-format", help="write the stack format's reference page (generated from the layer "
+                                            "schema; docs/stack-format.md in the repository)")
+    p.add_argument("-o", "--out", help="the page to write (default: print it)")
+    p.set_defaults(fn=cmd_stack_format)
     return ap
 
 

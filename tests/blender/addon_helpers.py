@@ -18,7 +18,7 @@ def unregister():
 
 
 def sphere_scene(res=48, spp=8, scene="sphere-env"):
-    """The canonical scene (DESIGN.md) with no material yet: (scene, sphere)."""
+    """The canonical scene (docs/design.md) with no material yet: (scene, sphere)."""
     from lamella.blender.render import build_scene
 
     return build_scene(scene, res, spp)

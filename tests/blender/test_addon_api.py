@@ -1,4 +1,4 @@
-"""The batch API (DESIGN.md "Contract: the Blender-side batch API"): apply_stack / read_stack,
+"""The batch API (docs/design.md "Contract: the Blender-side batch API"): apply_stack / read_stack,
 the material's nodes, and bad input that leaves the material as it was."""
 import json
 

@@ -1,4 +1,4 @@
-"""`lamella render` (DESIGN.md contract): canonical scenes to a linear float EXR, time printed."""
+"""`lamella render` (docs/design.md contract): canonical scenes to a linear float EXR, time printed."""
 import subprocess
 import sys
 

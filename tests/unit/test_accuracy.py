@@ -12,6 +12,7 @@ import pytest
 from lamella.bench import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
 from lamella.bench.accuracy import MODELS, evaluate_case, load_reference
 from lamella.core import suite
+from lamella.core.stack import Stack
 
 RECORDED = json.loads((BENCH_DIR / "accuracy.json").read_text())
 
@@ -45,7 +46,7 @@ def test_every_case_has_a_stored_reference():
     assert sorted(p.stem for p in REFERENCE_DIR.glob("*.npz")) == sorted(suite.names())
     for name in suite.names():
         ref = load_reference(name)
-        assert ref["meta"]["stack"] == suite.load(name).to_dict()
+        assert Stack.from_dict(ref["meta"]["stack"]) == suite.load(name)
         assert "lamella references" in ref["meta"]["command"]
 
 
@@ -57,7 +58,7 @@ def test_every_case_has_a_stored_multiple_scattering_reference():
     assert sorted(p.stem for p in REFERENCE_DIR_MULTIPLE.glob("*.npz")) == sorted(suite.names())
     for name in suite.names():
         ref = load_reference(name, REFERENCE_DIR_MULTIPLE)
-        assert ref["meta"]["stack"] == suite.load(name).to_dict()
+        assert Stack.from_dict(ref["meta"]["stack"]) == suite.load(name)
         assert ref["meta"]["interfaces"] == "multiple" and "--interfaces multiple" in ref["meta"]["command"]
 
 
@@ -68,7 +69,7 @@ def test_pending_references_match_their_stacks():
     pending = suite.pending_descriptions()
     for path in PENDING_DIR.glob("*.npz"):
         assert path.stem in pending, path
-        assert load_reference(path.stem, PENDING_DIR)["meta"]["stack"] == suite.load(path.stem).to_dict()
+        assert Stack.from_dict(load_reference(path.stem, PENDING_DIR)["meta"]["stack"]) == suite.load(path.stem)
 
 
 @pytest.mark.parametrize("case", suite.names())

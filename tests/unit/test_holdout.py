@@ -21,7 +21,7 @@ def test_stored_references_are_the_drawn_stacks(refs):
     drawn = holdout.draw()
     assert set(refs) == set(drawn)
     for name, ref in refs.items():
-        assert ref["meta"]["stack"] == drawn[name].to_dict(), name
+        assert Stack.from_dict(ref["meta"]["stack"]) == drawn[name], name
         assert ref["meta"]["interfaces"] == "multiple"
 
 

@@ -1,4 +1,4 @@
-"""Exact limits of every statistical model, and the GD normalisation (paper 001 Eqs. 37-38)."""
+"""Exact limits of every statistical model, and the GD normalisation (Randrianandrasana et al. 2021 Eqs. 37-38)."""
 import numpy as np
 import pytest
 
@@ -32,7 +32,7 @@ def hemisphere(n=400):
 
 # ------------------------------------------------------------------ smooth stacks: closed form
 def closed_form_smooth(d, cos0):
-    """Reflected energy of a smooth stack by the bottom-up adding series (paper 001 Eqs. 1-2):
+    """Reflected energy of a smooth stack by the bottom-up adding series (Randrianandrasana et al. 2021 Eqs. 1-2):
     R = r + t^2 A^2 R_below / (1 - r A^2 R_below), with r = t' complement of the exact Fresnel at the
     Snell angle of each interface and A the Beer-Lambert attenuation of one pass through a coat."""
     sin0 = np.sqrt(1.0 - cos0 ** 2)

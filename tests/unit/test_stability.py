@@ -104,7 +104,7 @@ def test_extreme_stacks(model, dtype, d):
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_back_facing_view_is_finite(model, dtype):
     """A shading normal facing away from the viewer (N.I <= 0: smooth-shaded silhouettes, bump
-    maps) is valid input: the shader must stay finite and passive there (issue 3)."""
+    maps) is valid input: the shader must stay finite and passive there."""
     d = {"layers": [{"ior": 1.5, "roughness": [0.1, 0.02], "rotation": 0.5, "thickness": 1.0,
                      "sigma_a": [0.1, 0.5, 2.0]}, {"ior": 1.3, "roughness": 0.05}],
          "base": {"type": "conductor", "roughness": 0.1}}

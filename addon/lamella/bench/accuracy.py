@@ -19,6 +19,7 @@ import numpy as np
 from ..core import api, reference, suite
 from ..core.metrics import albedo_error, relative_l1
 from ..core.models import UnsupportedStack
+from ..core.stack import Stack
 from . import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
 
 MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "endf", "auto")
@@ -88,7 +89,7 @@ def compute_references(cases=None, spp: int = 2048, albedo_spp: int = 1 << 18, s
                 raise FileNotFoundError(f"{path}: compute the reference at {suite.WI_DEGREES} first")
             old = load_reference(name, out_dir)
             meta = old.pop("meta")
-            if meta["stack"] != stack.to_dict() or meta.get("interfaces", "single") != interfaces:
+            if Stack.from_dict(meta["stack"]) != stack or meta.get("interfaces", "single") != interfaces:
                 raise ValueError(f"{path}: stored for another stack or interface setting")
             per = _split_angles(old)
         t0 = time.time()

@@ -23,7 +23,7 @@ from . import BENCH_DIR
 
 QUADRATURE = (160, 240)  # (n_theta, n_phi) of the half-vector grid
 ANGLES = (0.0, 30.0, 45.0, 60.0, 75.0)
-TOLERANCE = 0.02  # the relative gap the accuracy issue allows between weights and the integral
+TOLERANCE = 0.02  # the relative gap allowed between the lobe weights and the integral of evaluate
 
 
 def delivered(stack, wi, model="auto") -> tuple[np.ndarray, np.ndarray]:

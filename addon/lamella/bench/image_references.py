@@ -1,4 +1,4 @@
-"""Stored image references (issue 3): every suite case rendered as nested interface spheres
+"""Stored image references (Heitz et al. 2016's walk on each interface, or single scattering): every suite case rendered as nested interface spheres
 (``lamella.blender.reference_scene``) in the canonical ``sphere-env`` scene.
 
 Each reference is the average of renders ("chunks") with seeds 0, 1, 2, ...; the spread between

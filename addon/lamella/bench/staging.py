@@ -29,7 +29,7 @@ from . import BENCH_DIR
 
 ANGLES = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 75.0, 80.0, 85.0)
 AZIMUTHS = (0.0, 0.37, 1.3, 2.9, 4.4)
-RES, SPP, REPEATS = 160, 128, 3  # the scene, size and samples of the measurements
+RES, SPP, REPEATS = 160, 128, 3  # the scene's size, samples and repeats of every measurement here
 
 
 def _stacks():

@@ -1,4 +1,4 @@
-"""The Blender-side batch API (DESIGN.md "Contract: the Blender-side batch API"), re-exported by
+"""The Blender-side batch API (docs/design.md "Contract: the Blender-side batch API"), re-exported by
 the extension's top-level module: ``apply_stack(material, stack)`` and ``read_stack(material)``.
 
 ``apply_stack`` validates and compiles before it touches the material: a bad stack raises

@@ -220,6 +220,9 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
     """The Lamella stack of a material."""
 
     enabled: BoolProperty(name="Lamella", description="This material is built by Lamella from its layer stack")
+    format: IntProperty(name="Stack Format", default=0, min=0,
+                        description="Version of the stack format this material's Lamella data is stored in "
+                                    "(0: saved before versions were recorded, read as 1)")
     stack_name: StringProperty(name="Stack Name", description="Name of the stack (kept in exported JSON)",
                                update=_on_edit)
     coats: CollectionProperty(type=LAMELLA_PG_layer, name="Coats", description="Coats, top to bottom")

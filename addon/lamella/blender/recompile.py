@@ -34,6 +34,9 @@ from contextlib import contextmanager
 import bpy
 from bpy.app.handlers import persistent
 
+from ..core import stack_format
+from . import versioning
+
 DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
 GROUP_DELAY = 0.5  # seconds of quiet after an edit before a node group nobody renders is rebuilt
 DRAG_WINDOW = 0.5  # seconds: an edit compiled this soon after the material's last compile continues a drag
@@ -247,6 +250,7 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
         settings.lobes_all = shader.staged.lobes_all
     settings.live_params = ", ".join(shader.live_sockets)
     settings.compiled_json = stack.to_json(indent=None)
+    settings.format = stack_format.FORMAT  # compiled from properties of this Lamella's schema
     settings.status = "OK"
     settings.status_message = ""
     if t0 is not None:
@@ -273,6 +277,12 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     t0 = time.perf_counter()
     if settings.compiled_json:
         _guarded(mat, "checking the nodes", lambda: repair_needed(mat))
+    if versioning.refuses_edits(settings):  # a newer Lamella's data: keep it and its shader as saved
+        settings.status = "ERROR"
+        settings.status_message = versioning.newer_message(versioning.stored_format(settings))
+        if raise_errors:
+            raise StackError("stack", "format", settings.status_message)
+        return False
     key = mat.name_full
     last = _last_compile.get(key)
     partition = last[1] if drag and last is not None and t0 - last[0] < DRAG_WINDOW else None
@@ -398,7 +408,12 @@ def _after_load(*_args):
     _last_compile.clear()
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled:
+            state = _guarded(mat, "reading the stored stack", lambda m=mat: versioning.check_loaded(m), "current")
+            if state == "newer":
+                continue
             _guarded(mat, "pointing the shader at the tables", lambda m=mat: material_nodes.refresh_lut_dir(m, str(luts.DATA_DIR)))
+            if state == "migrated":
+                schedule(mat)
             schedule_inspector(mat)
     _guarded(None, "removing unused data", material_nodes.drop_unused_data)
 

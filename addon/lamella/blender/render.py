@@ -1,4 +1,4 @@
-"""Canonical sphere scenes (DESIGN.md "Contract: the canonical sphere scenes") rendered headless
+"""Canonical sphere scenes (docs/design.md "Contract: the canonical sphere scenes") rendered headless
 through bpy. Used by `lamella render`, the references and the tests: one code path."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Between a material's Lamella properties and the stack description (DESIGN.md "Contract: the
+"""Between a material's Lamella properties and the stack description (docs/design.md "Contract: the
 stack description"), field by field through the layer-kind schema.
 
 Blender stores floats in single precision; values read back are rounded to 7 significant digits
@@ -73,7 +73,11 @@ def layer_label(layer) -> str:
 
 
 def write_stack(settings, stack: Stack) -> None:
-    """Replace the material's layers and base by ``stack`` (already validated)."""
+    """Replace the material's layers and base by ``stack`` (already validated), stored in the
+    current stack format."""
+    from ..core.stack_format import FORMAT
+
+    settings.format = FORMAT
     settings.stack_name = stack.name
     settings.coats.clear()
     for c in stack.coats:

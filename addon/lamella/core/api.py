@@ -1,4 +1,4 @@
-"""The Python API of DESIGN.md ("Contract: the Python API"): ``lobes``, ``evaluate``, ``albedo``.
+"""The Python API of docs/design.md ("Contract: the Python API"): ``lobes``, ``evaluate``, ``albedo``.
 
 Runs the one model on the numpy backend. ``model`` is a name of ``MODELS`` (``"auto"`` picks one
 by the stack's structure, ``models.choose_auto``) or a model object (e.g.

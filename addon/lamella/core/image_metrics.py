@@ -1,4 +1,4 @@
-"""Error metrics of DESIGN.md ("Metrics"), image space: RMSE on linear RGB, mean CIEDE2000 after a
+"""Error metrics of docs/design.md ("Metrics"), image space: RMSE on linear RGB, mean CIEDE2000 after a
 fixed tone map (colour-science), FLIP (flip-evaluator) -- always over a mask of the pixels that
 matter (the sphere), so a background shared by both images does not dilute the figures.
 

@@ -1,6 +1,6 @@
 """The lobe kinds: one table that says, for every kind of lobe a model emits, how it is evaluated,
 how its weight is normalised, which side of the surface it lights and which Cycles closure
-renders it, in OSL and as a Blender BSDF node (DESIGN.md "Where a new kind goes").
+renders it, in OSL and as a Blender BSDF node (docs/design.md "Where a new kind goes").
 ``lamella.core.api.evaluate`` (numpy), the OSL emitter and the node-graph emitter all read this
 table and nothing else about lobes.
 

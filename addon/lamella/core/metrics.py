@@ -1,4 +1,4 @@
-"""Error metrics of DESIGN.md ("Metrics"), BRDF space."""
+"""Error metrics of docs/design.md ("Metrics"), BRDF space."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,6 +1,7 @@
-"""The layer stack: validation, defaults, normalisation (DESIGN.md, "Contract: the stack description").
+"""The layer stack: validation, defaults, normalisation (docs/design.md, "Contract: the stack description").
 
-A stack is JSON-compatible data: coats listed top to bottom, then a base. Each layer is parsed by
+A stack is JSON-compatible data: coats listed top to bottom, then a base, and the version of the
+format it is written in (``stack_format``: older formats are migrated on reading). Each layer is parsed by
 its kind's schema (``lamella.core.layers``), which turns it into an immutable dataclass and
 rejects bad input with a :class:`StackError` whose message names the layer and the field, so every
 entry point (UI, JSON, Python API, CLI) can show it as is.
@@ -11,6 +12,7 @@ import json
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from . import stack_format
 from .layers import BASE_KINDS, COAT_KINDS, Coat, Conductor, Dielectric, Diffuse, StackError
 
 MAX_COATS = 8
@@ -33,9 +35,10 @@ class Stack:
     def from_dict(cls, d: Mapping[str, Any]) -> "Stack":
         if not isinstance(d, Mapping):
             raise StackError("stack", None, f"expected an object, got {type(d).__name__}")
+        d = stack_format.upgrade(d)  # older formats migrated, newer ones refused
         for k in d:
-            if k not in ("name", "layers", "base"):
-                raise StackError("stack", str(k)[:60], "unknown key (allowed: base, layers, name)")
+            if k not in ("format", "name", "layers", "base"):
+                raise StackError("stack", str(k)[:60], "unknown key (allowed: base, format, layers, name)")
         name = d.get("name", "")
         if not isinstance(name, str):
             raise StackError("stack", "name", f"expected a string, got {type(name).__name__}")
@@ -77,7 +80,7 @@ class Stack:
         return cls.from_dict(s)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "layers": [c.kind.to_dict(c) for c in self.coats],
+        return {"format": stack_format.FORMAT, "name": self.name, "layers": [c.kind.to_dict(c) for c in self.coats],
                 "base": self.base.kind.to_dict(self.base)}
 
     def to_json(self, indent: int | None = 2) -> str:

@@ -1,5 +1,5 @@
 """The accuracy suite: the paper-figure stacks every model is measured on, the incidence angles,
-and the hemisphere grid of outgoing directions (DESIGN.md "Metrics").
+and the hemisphere grid of outgoing directions (docs/design.md "Metrics").
 
 The stacks live as JSON in ``lamella/data/stacks`` (``SUITE.json`` lists them with a one-line
 description), so they double as examples for ``lamella lobes`` and ``lamella plot``.

@@ -1,4 +1,4 @@
-"""Node-graph backend: the traced model lowered to Blender shader nodes (DESIGN.md "One model,
+"""Node-graph backend: the traced model lowered to Blender shader nodes (docs/design.md "One model,
 three backends"), for EEVEE and for Cycles without OSL (SVM, GPU).
 
 The model is traced once with ``Tracer`` exactly as for OSL; this module lowers the traced graph

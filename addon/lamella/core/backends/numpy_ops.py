@@ -1,4 +1,4 @@
-"""The numpy backend of the one model (DESIGN.md, "One model, three backends").
+"""The numpy backend of the one model (docs/design.md, "One model, three backends").
 
 Model code never imports numpy: it receives an *ops* object and uses only its operations,
 Python arithmetic and comparisons on the values it is handed. ``NumpyOps`` maps those operations

@@ -1,4 +1,4 @@
-"""OSL backend: print the traced model as a straight-line Cycles OSL shader (DESIGN.md "One model,
+"""OSL backend: print the traced model as a straight-line Cycles OSL shader (docs/design.md "One model,
 three backends").
 
 The model is traced once with ``Tracer`` (layer loops unrolled, structure resolved, constants

@@ -1,6 +1,6 @@
 """A tracing backend: runs the one model on symbolic values and records an expression graph.
 
-This is the front half of the OSL and node-graph emitters (DESIGN.md "One model, three
+This is the front half of the OSL and node-graph emitters (docs/design.md "One model, three
 backends"): values are ``Expr`` nodes; arithmetic between plain numbers is folded at trace time,
 identical sub-expressions are shared (hash-consing), and the result is a finite DAG whose
 leaves are literals, shader parameters (``param``) and shading inputs (``input``). Evaluating the

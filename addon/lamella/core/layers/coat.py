@@ -1,6 +1,6 @@
 """The coat: a slab whose top interface separates the medium above from its interior of index
 ``ior``, a homogeneous medium of ``thickness`` with absorption ``sigma_a``, scattering ``sigma_s``
-(per unit length, RGB) and Henyey-Greenstein asymmetry ``g`` (DESIGN.md, "Contract: the stack
+(per unit length, RGB) and Henyey-Greenstein asymmetry ``g`` (docs/design.md, "Contract: the stack
 description"). A coat whose ior equals the medium above and whose roughness is 0 is a pure
 medium (dust, fog)."""
 from __future__ import annotations

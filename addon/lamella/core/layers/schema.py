@@ -1,5 +1,5 @@
 """The field schema of a layer kind: one declaration per field that the stack parser, ``to_dict``
-and the Blender properties all read (DESIGN.md "Where a new kind goes").
+and the Blender properties all read (docs/design.md "Where a new kind goes").
 
 A :class:`Field` says what a value is (a number, an RGB triple, a GGX roughness that may be
 anisotropic), its default, its hard limits (rejected outside) and soft limits (the range a UI

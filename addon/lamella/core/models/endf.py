@@ -1,5 +1,5 @@
 """The extended normal distribution function (ENDF) model of a thin transparent layer: one coat
-over a conductor or a dielectric base (the ENDF paper: von Mises-Fisher NDFs, Eqs. 5-6; spherical
+over a conductor or a dielectric base (Guo et al. 2015: von Mises-Fisher NDFs, Eqs. 5-6; spherical
 warping, Eqs. 12-13; joint spherical warping as a vMF convolution, Eqs. 17-22; the one-bounce
 subsurface lobe, Eq. 26; absorption, Eq. 27).
 
@@ -16,7 +16,7 @@ Lobes, in the order of the other models:
   (the paper's thin-slab case, Eqs. 23-24).
 
 With every mean normal equal to n and mean directions the specular ones, the Jacobians at the
-mean directions (Walter et al. 2007 Eqs. 14 and 16-17; the ENDF paper's Eqs. 12-13 and 21) are, for
+mean directions (Walter et al. 2007 Eqs. 14 and 16-17; Guo et al. 2015 Eqs. 12-13 and 21) are, for
 incidence cosine mu, refracted cosine c inside the coat of index eta:
 
 * m1 on the way in, seen at the exit: J = mu / (mu - eta c)^2 (refraction in, mirror, refraction
@@ -52,7 +52,7 @@ V_MAX = 1e4  # largest 1 / kappa carried (a uniform distribution is 1 / kappa ->
 
 def one_minus_a3(ops, v):
     """u = 1 - A3(kappa) for v = 1 / kappa >= 0, A3(kappa) = coth(kappa) - 1 / kappa the mean
-    resultant length of a vMF on the sphere (ENDF paper, after Eq. 6). Closed form in decaying
+    resultant length of a vMF on the sphere (Guo et al. 2015, after Eq. 6). Closed form in decaying
     exponentials, u = v - 2 q / (1 - q), q = exp(-2 kappa) (exactly v for a narrow lobe); the series
     A3 = kappa/3 - kappa^3/45 + 2 kappa^5/945 - kappa^7/4725 below kappa = A3_SERIES_KAPPA."""
     v = ops.clamp(v, 0.0, V_MAX)

@@ -1,6 +1,6 @@
 """Exact unpolarised Fresnel reflectance, written once over the abstract ops.
 
-Dielectric: paper 004 Eq. (9) / Walter et al. 2007 Eq. (22) in the s/p form, with total internal
+Dielectric: Guo et al. 2015 Eq. (9) / Walter et al. 2007 Eq. (22) in the s/p form, with total internal
 reflection. Conductor: the exact complex-index form (e.g. Born & Wolf; the formula used by pbrt-v4
 ``FrComplex`` expanded into real arithmetic), unpolarised average of s and p.
 """

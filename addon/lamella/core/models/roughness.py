@@ -1,9 +1,9 @@
 """Roughness <-> variance mappings of the statistical layered models.
 
-``belcour``: h(a) = a^1.1 / (1 - a^1.1) (Belcour 2018; restated in paper 000 Eq. 1-2), inverse
+``belcour``: h(a) = a^1.1 / (1 - a^1.1) (Belcour 2018; restated in Yamaguchi et al. 2019 Eqs. 1-2), inverse
 (v / (1 + v))^(1/1.1).
 ``weier``: f(a) = log(1 + b a^A / (1 - a^A)), inverse ((e^v - 1) / (e^v - 1 + b))^(1/A) with
-A = 1.28809776, b = 1.31699416 (paper 003, Section 3.3 and Listing 2).
+A = 1.28809776, b = 1.31699416 (Weier & Belcour 2020, Section 3.3 and Listing 2).
 
 Both forward maps clamp a^p below 1 - 1e-5 as Listing 2 does, so alpha = 1 gives a large finite
 variance. The inverses are written so that no intermediate overflows for any variance >= 0:

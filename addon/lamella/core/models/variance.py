@@ -3,9 +3,9 @@
 All three are linear spaces (sum, scale by a scalar), which is all the adding equations need:
 
 ``ScalarVariance``      Belcour 2018: one variance; anisotropic roughness averaged.
-``AxisVariance``        Weier & Belcour 2020 (paper 003, Section 3.1): one variance per axis of
+``AxisVariance``        Weier & Belcour 2020, Section 3.1: one variance per axis of
                         a frame shared by all layers (the shading frame).
-``CovarianceVariance``  Yamaguchi et al. 2019 (paper 000, Section 3.1): a 2x2 covariance
+``CovarianceVariance``  Yamaguchi et al. 2019, Section 3.1: a 2x2 covariance
                         Sigma = R^T diag(h(ax), h(ay)) R per interface, R the interface's rotation;
                         the final lobe is its eigen-decomposition.
 
@@ -74,7 +74,7 @@ def rms_alpha(ops, ax, ay):
 
 
 def _stretch_fetch(ops, lx, ly, cz, ax, ay):
-    """Paper 003 Listing 1: stretch the incident direction by the excess roughness of each axis
+    """Weier & Belcour 2020 Listing 1: stretch the incident direction by the excess roughness of each axis
     and read the isotropic table at the smaller roughness."""
     amin = ops.min(ax, ay)
     dx = ax - amin
@@ -172,7 +172,7 @@ class CovarianceVariance:
     @staticmethod
     def from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=1.0):
         """Sigma = R^T diag(h(ax), h(ay)) R with the interface axes x' = (cos r, sin r)
-        (paper 000, Section 3.1)."""
+        (Yamaguchi et al. 2019, Section 3.1)."""
         vx = mapping.to_variance(ops, ax * scale)
         vy = mapping.to_variance(ops, ay * scale)
         c2, s2, cs = cos_r * cos_r, sin_r * sin_r, cos_r * sin_r
@@ -180,10 +180,10 @@ class CovarianceVariance:
 
     @staticmethod
     def fgd_fetch(ops, sx, sy, cz, ax, ay, cos_r, sin_r):
-        """Isotropic tables read at the RMS roughness sqrt((ax^2 + ay^2) / 2). Paper 000 used
+        """Isotropic tables read at the RMS roughness sqrt((ax^2 + ay^2) / 2). Yamaguchi et al. 2019 used
         Unity's F*G approximation here; we measured (``tests/unit/test_models.py``,
         ``test_anisotropic_energy``) that the RMS roughness tracks the directional albedo of
-        anisotropic GGX far better than the stretch of paper 003 Listing 1 when one axis is
+        anisotropic GGX far better than the stretch of Weier & Belcour 2020 Listing 1 when one axis is
         much rougher (e.g. (0.3, 0.05) at normal incidence: 0.938 vs exact 0.934; Listing 1 gives
         the smooth value 0.997). Rotation-invariant, so rotated interfaces need nothing more."""
         return cz, rms_alpha(ops, ax, ay)

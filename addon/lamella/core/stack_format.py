@@ -1,0 +1,61 @@
+"""The stack description's format version, and the migrations that bring older stacks up to it.
+
+Every stack Lamella writes (``Stack.to_dict``, presets, the OSL bundle's copy, the data stored on
+a material) carries ``"format": FORMAT``. A stack without the key is read as format 1, the format
+of every stack written before the key existed. Reading a stack runs ``MIGRATIONS[v]`` for each
+older version v in turn (each takes a format-v dict and returns a format-(v + 1) dict, never
+touching its argument), so the parser only ever sees the current format; a stack from a newer
+Lamella is refused with a message that says so, before any field is read.
+
+The history of the format (what each version changed) is in ``CHANGES`` and in the generated
+reference page ``docs/stack-format.md``.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping
+
+from .layers.schema import StackError
+
+FORMAT = 1  # the format this Lamella writes
+KEY = "format"
+
+# What each version changed, newest last: the reference page prints it.
+CHANGES: dict[int, str] = {
+    1: "The first versioned format: coats top to bottom under `layers`, a `base` of kind conductor, diffuse or "
+       "dielectric, an optional `name`. Stacks written without a `format` key are read as format 1.",
+}
+
+# v -> the function taking a format-v stack dict to format v + 1 (none yet: format 1 is the first)
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
+
+
+def version_of(d: Mapping[str, Any]) -> int:
+    """The format a stack dict declares (1 without the key); a ``StackError`` for anything but a
+    whole number from 1 to ``FORMAT``."""
+    v = d.get(KEY, 1)
+    if isinstance(v, bool) or not isinstance(v, int):
+        if isinstance(v, float) and v.is_integer():
+            v = int(v)
+        else:
+            raise StackError("stack", KEY, f"expected a whole number (the stack format version), got {v!r:.40}")
+    if v > FORMAT:
+        raise StackError("stack", KEY, f"format {v} was written by a newer Lamella; this one reads formats 1 to "
+                                       f"{FORMAT}: update the extension to open it")
+    if v < 1:
+        raise StackError("stack", KEY, f"must be at least 1, got {v}")
+    return v
+
+
+def upgrade(d: Mapping[str, Any]) -> dict:
+    """``d`` brought to the current format (a new dict; ``d`` is left as it was), its ``format``
+    key set to ``FORMAT``."""
+    v = version_of(d)
+    out = dict(d)
+    while v < FORMAT:
+        out = MIGRATIONS[v](out)
+        v += 1
+    out[KEY] = FORMAT
+    return out
+
+
+__all__ = ["FORMAT", "KEY", "CHANGES", "MIGRATIONS", "version_of", "upgrade"]
