@@ -1,5 +1,9 @@
 # Lamella: `make demo` (main job) and `make test` set everything up by themselves on a fresh machine.
-PYTHON ?= python3.11
+# The main target is Blender 5.2 LTS (the bpy 5.2.3 wheel, Python 3.13: pyenv's 3.13 where pyenv
+# is installed); `make test-blender-versions` runs the extension's tests on 4.2, 4.5 and 5.0
+# (Python 3.11).
+PYTHON ?= $(shell PYENV_VERSION=3.13.0 pyenv which python3.13 2>/dev/null || command -v python3.13)
+PYTHON311 ?= $(shell PYENV_VERSION=3.11.7 pyenv which python3.11 2>/dev/null || command -v python3.11)
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
@@ -9,6 +13,10 @@ STAMP  := $(VENV)/.lamella-installed
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml tools/install_bpy_pth.py
+	@test -n "$(PYTHON)" || { echo "Python 3.13 is needed (Blender 5.2's): set PYTHON=/path/to/python3.13"; exit 1; }
+	@$(PYTHON) -c "import sys; assert sys.version_info[:2] == (3, 13), sys.version"
+	@# a venv of another Python (the project's earlier 3.11 one) is replaced, not mixed into
+	@test ! -x $(PY) || $(PY) -c "import sys; sys.exit(sys.version_info[:2] != (3, 13))" || rm -rf $(VENV)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e ".[test,blender]"
@@ -28,19 +36,22 @@ test: setup
 package: setup
 	$(PY) tools/build_extension.py dist
 
-# The extension's tests on other Blender releases whose bpy wheels install here (Python 3.11):
-# one venv each (.venv-bpy-<version>), the project installed into it with that bpy.
-BLENDER_VERSIONS ?= 4.2.23 4.5.15
+# The extension's tests on the other Blender releases whose bpy wheels install here (Python 3.11,
+# numpy 1.x as those Blenders bundle): one venv each (.venv-bpy-<version>), the project installed
+# into it with that bpy.
+BLENDER_VERSIONS ?= 4.2.23 4.5.15 5.0.1
 ADDON_TESTS := tests/blender/test_addon_api.py tests/blender/test_addon_operators.py tests/blender/test_addon_ui.py \
 	tests/blender/test_addon_persistence.py tests/blender/test_addon_presets.py tests/blender/test_extension_package.py \
-	tests/blender/test_batch.py tests/blender/test_addon_nodes.py tests/blender/test_osl_tables.py
+	tests/blender/test_batch.py tests/blender/test_addon_nodes.py tests/blender/test_osl_tables.py \
+	tests/blender/test_stack_format_on_materials.py
 test-blender-versions:
 	@for v in $(BLENDER_VERSIONS); do \
 		echo "== bpy $$v"; \
-		test -x .venv-bpy-$$v/bin/python || $(PYTHON) -m venv .venv-bpy-$$v || exit 1; \
-		.venv-bpy-$$v/bin/pip install -q -e ".[test]" "bpy==$$v" || exit 1; \
-		.venv-bpy-$$v/bin/python tools/install_bpy_pth.py || exit 1; \
-		.venv-bpy-$$v/bin/pytest -q -n 2 -p no:cacheprovider $(ADDON_TESTS) || exit 1; \
+		venv=.venv-bpy-$$v; \
+		test -x $$venv/bin/python || $(PYTHON311) -m venv $$venv || exit 1; \
+		$$venv/bin/python -m pip install -q -e ".[test]" "bpy==$$v" || exit 1; \
+		$$venv/bin/python tools/install_bpy_pth.py || exit 1; \
+		$$venv/bin/python -m pytest -q -n 2 -p no:cacheprovider $(ADDON_TESTS) || exit 1; \
 	done
 
 bench-accuracy: setup

@@ -1,9 +1,9 @@
 """Add the bpy wheel's bundled site-packages (oslquery, OpenImageIO, ...) to the venv's sys.path.
 
 Cycles' Script-node compile imports ``oslquery``, which the bpy wheel ships inside
-``bpy/5.0/python/lib/python3.11/site-packages`` (docs/extension.md, "Decisions worth knowing"). A ``.pth`` file in
-the venv's site-packages appends that folder at the *end* of sys.path, so it never shadows a pip
-package. Run with the venv's python; idempotent.
+``bpy/<version>/python/lib/python3.<minor>/site-packages`` (e.g. ``bpy/5.2/python/lib/python3.13``;
+docs/extension.md). A ``.pth`` file in the venv's site-packages appends that folder at the *end*
+of sys.path, so it never shadows a pip package. Run with the venv's python; idempotent.
 """
 import sys
 import sysconfig

@@ -63,7 +63,7 @@ def test_trapping_bench_writes_its_table(tmp_path):
 
 
 @pytest.mark.parametrize("content, message", [
-    ('{"layers": ' + "[" * 3000 + "]" * 3000 + ', "base": {"type": "conductor"}}', "nested too deeply"),
+    ('{"layers": ' + "[" * 50000 + "]" * 50000 + ', "base": {"type": "conductor"}}', "nested too deeply"),
     (b"\xff\xfe not text", "cannot read it"),
     ('{"layers": [{"ior": 1e300}], "base": {"type": "conductor"}}', "coat 0, field 'ior'"),
 ])

@@ -5,13 +5,13 @@ import pytest
 import lamella.core as lc
 from lamella.core import reference
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.models import variant
+from lamella.core.models import VARIANTS, variant
 from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
 from lamella.core.models.ggx import ggx_lobe_cos
 
 from .stacks import GOLD, coat, gold, stack
 
-MODELS = ["belcour2018", "weier2020", "yamaguchi2019"]
+MODELS = list(VARIANTS)  # the adding-doubling family, as registered
 THETAS = [0.0, 30.0, 60.0, 75.0, 89.0]
 
 

@@ -10,11 +10,11 @@ import lamella.core as lc
 import lamella.core.models as models_pkg
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.backends.trace import Expr, Tracer
-from lamella.core.models import eval_lobes_cos, run_model, variant
+from lamella.core.models import eval_lobes_cos, run_model
 
 from .stacks import coat, gold, stack
 
-MODELS = ["belcour2018", "weier2020", "yamaguchi2019"]
+MODELS = list(models_pkg.VARIANTS)  # the adding-doubling family, as registered
 
 
 def test_model_modules_never_import_numpy():
@@ -46,7 +46,7 @@ def trace(d, model):
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
     wo = tuple(t.input(n) for n in ("wo_x", "wo_y", "wo_z"))
-    lobes = run_model(t, lc.Stack.from_dict(d), wi, variant(model))
+    lobes = run_model(t, lc.Stack.from_dict(d), wi, model)
     return t, wi, wo, lobes, list(eval_lobes_cos(t, lobes, wi, wo))
 
 
@@ -77,6 +77,31 @@ def test_traces_to_a_finite_graph_equal_to_numpy(kind, model):
     absorbing = {i for i, c in enumerate(d["layers"]) if c["thickness"] > 0 and max(c["sigma_a"]) > 0}
     assert {int(p[4]) for p in t.params if p.endswith("_thickness")} == absorbing
     wi_np, wo_np = random_dirs(64, 1), random_dirs(64, 2)
+    values = dict(t.defaults)
+    values.update({f"wi_{c}": wi_np[:, k] for k, c in enumerate("xyz")})
+    values.update({f"wo_{c}": wo_np[:, k] for k, c in enumerate("xyz")})
+    got = np.stack(t.evaluate(outputs, NumpyOps(), values), -1)
+    np.testing.assert_array_equal(got, lc.evaluate(d, wi_np, wo_np, model))
+
+
+OTHER_BASES = {
+    "scattering coat over diffuse": stack(dict(coat(1.4, 0.2, thickness=0.5), sigma_s=[1.0, 2.0, 3.0], g=0.3),
+                                          base={"type": "diffuse", "albedo": [0.6, 0.4, 0.2]}),
+    "coat over glass": stack(coat(1.5, 0.1), base={"type": "dielectric", "ior": 1.3, "roughness": 0.2}),
+}
+
+
+@pytest.mark.parametrize("model", list(lc.MODELS))
+@pytest.mark.parametrize("kind", [*KINDS, *OTHER_BASES])
+def test_every_registered_model_traces_to_numpy_bit_for_bit(kind, model):
+    """The one-model rule for every model in the registry (a new one is checked by being
+    registered), on every stack kind it represents."""
+    d = {**KINDS, **OTHER_BASES}[kind]
+    try:
+        t, wi, wo, lobes, outputs = trace(d, model)
+    except lc.UnsupportedStack as e:
+        pytest.skip(str(e))
+    wi_np, wo_np = random_dirs(32, 3), random_dirs(32, 4)
     values = dict(t.defaults)
     values.update({f"wi_{c}": wi_np[:, k] for k, c in enumerate("xyz")})
     values.update({f"wo_{c}": wo_np[:, k] for k, c in enumerate("xyz")})

@@ -18,11 +18,12 @@ import numpy as np
 
 from ..core import api, reference, suite
 from ..core.metrics import albedo_error, relative_l1
+from ..core.models import MODELS as REGISTRY
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack
 from . import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
 
-MODELS = ("belcour2018", "weier2020", "yamaguchi2019", "tm2", "tm6", "endf", "auto")
+MODELS = (*REGISTRY, "auto")  # every registered model, then auto
 
 
 def reference_dir(interfaces: str) -> Path:
