@@ -26,7 +26,7 @@ os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="lamella
 import bpy  # noqa: E402
 
 from lamella.blender.osl_compile import capture_stderr  # noqa: E402
-from lamella.blender.render import build_scene, node_tree, render_scene, use_eevee  # noqa: E402
+from lamella_dev.render import build_scene, node_tree, render_scene, use_eevee  # noqa: E402
 
 SIZE = 100
 OVERFLOW = re.compile(r"Uniform block \w+ too big \((\d+)/\d+\)")

@@ -19,13 +19,13 @@ def unregister():
 
 def sphere_scene(res=48, spp=8, scene="sphere-env"):
     """The canonical scene (docs/design.md) with no material yet: (scene, sphere)."""
-    from lamella.blender.render import build_scene
+    from lamella_dev.render import build_scene
 
     return build_scene(scene, res, spp)
 
 
 def render(sc) -> np.ndarray:
-    from lamella.blender.render import render_scene
+    from lamella_dev.render import render_scene
 
     return render_scene(sc)[0]
 

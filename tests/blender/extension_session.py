@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 # what a stock Blender does not have: the development copy and the test/bench dependencies
-for name in ("lamella", "OpenEXR", "matplotlib", "colour", "flip_evaluator", "hypothesis", "scipy"):
+for name in ("lamella", "lamella_dev", "OpenEXR", "matplotlib", "colour", "flip_evaluator", "hypothesis", "scipy"):
     sys.modules[name] = None
 
 import bpy  # noqa: E402
@@ -71,5 +71,5 @@ found["user_dir"] = bpy.utils.extension_path_user(module)
 found["cache_files"] = len(list(Path(found["user_dir"]).rglob("*.oso")))
 after = {p for p in ext_dir.rglob("*") if "__pycache__" not in p.parts}
 found["written_into_extension"] = sorted(str(p.relative_to(ext_dir)) for p in after - before)
-found["loaded_dev_copy"] = any(k == "lamella" or k.startswith("lamella.") for k, v in sys.modules.items() if v)
+found["loaded_dev_copy"] = any(k.split(".")[0] in ("lamella", "lamella_dev") for k, v in sys.modules.items() if v)
 print("FOUND " + json.dumps(found))

@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from lamella.core import Stack, StackError, suite
+from lamella.core import Stack, StackError
+from lamella_dev import suite
 from lamella.core.models import UnsupportedStack
 
 pytest.importorskip("bpy")
@@ -86,7 +87,7 @@ def test_forced_model_that_cannot_run_the_stack_leaves_the_material_intact(addon
 
 
 def test_user_nodes_stay_and_linked_textures_survive_recompiles(addon):
-    from lamella.blender.render import node_tree
+    from lamella_dev.render import node_tree
 
     mat = addon.data.materials.new("user_nodes")
     nt = node_tree(mat)

@@ -3,7 +3,8 @@ it cannot (OSL off, a GPU device) and in EEVEE, switching by itself when the sce
 import numpy as np
 import pytest
 
-from lamella.core import Stack, suite
+from lamella.core import Stack
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, recompile  # noqa: E402
@@ -91,7 +92,7 @@ def test_a_copied_material_gets_its_own_group(addon):
 
 
 def test_eevee_renders_the_material(addon):
-    from lamella.blender.render import use_eevee
+    from lamella_dev.render import use_eevee
 
     sc, sphere = sphere_scene(res=32, spp=4)
     mat = new_material(sphere)

@@ -5,7 +5,8 @@ import json
 
 import pytest
 
-from lamella.core import StackError, presets, suite
+from lamella.core import StackError, presets
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, operators  # noqa: E402

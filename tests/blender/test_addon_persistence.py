@@ -3,7 +3,7 @@ redo, append and link into another file, and registering the extension again."""
 import numpy as np
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes  # noqa: E402

@@ -4,7 +4,7 @@ registered, in every state the panel has (each base kind and conductor mode, ani
 media, errors, a plain material, render-setting problems)."""
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, ui  # noqa: E402

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lamella.core import Stack, suite
+from lamella.core import Stack
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api  # noqa: E402
@@ -42,7 +43,7 @@ def _check_output(addon, out, case):
 
 def test_lamella_apply_command(addon, scene_blend, tmp_path):
     out = tmp_path / "out.blend"
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "apply", "tinted_varnish", "--blend", str(scene_blend),
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "apply", "tinted_varnish", "--blend", str(scene_blend),
                         "--material", "Paint", "-o", str(out)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "updated material 'Paint'" in r.stdout
@@ -53,7 +54,7 @@ def test_lamella_apply_refuses_a_bad_stack_and_writes_nothing(scene_blend, tmp_p
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"layers": [{"g": 1.0}], "base": {"type": "diffuse"}}))
     out = tmp_path / "out.blend"
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "apply", str(bad), "--blend", str(scene_blend),
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "apply", str(bad), "--blend", str(scene_blend),
                         "--material", "Paint", "-o", str(out)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "coat 0, field 'g'" in r.stderr
     assert not out.exists()

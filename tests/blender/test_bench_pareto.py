@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
-from lamella.bench import pareto  # noqa: E402
+from lamella_dev.bench import pareto  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import pytest
 from lamella.core.stack import Stack
 
 pytest.importorskip("bpy")
-from lamella.blender.render import assign_material, build_scene, render_scene  # noqa: E402
+from lamella_dev.render import assign_material, build_scene, render_scene  # noqa: E402
 
 GLASS = {
     "coated_glass": {"layers": [{"ior": 1.5, "roughness": 0.1}], "base": {"type": "dielectric", "ior": 1.5, "roughness": 0.1}},

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
-from lamella.blender.render import assign_material, build_scene, render_scene, sphere_material  # noqa: E402
+from lamella_dev.render import assign_material, build_scene, render_scene, sphere_material  # noqa: E402
 from lamella.core import api  # noqa: E402
 from lamella.core.backends import lobe_budget  # noqa: E402
 from lamella.core.backends.staging import stage  # noqa: E402
@@ -53,7 +53,7 @@ FURNACE_SPP = 1024
 
 
 def test_a_stack_with_more_lobes_than_closures_renders_its_energy():
-    from lamella.bench.recompile import _stack
+    from lamella_dev.bench.recompile import _stack
 
     stack = _stack("8 coats + media", None)
     st = stage(stack, budget="all")
@@ -69,8 +69,8 @@ def test_a_textured_stack_with_more_live_lobes_than_closures_renders_its_energy(
     """Lobes that read a linked input merge too (traced, with each other) as far as the cap
     requires: eight coats with media and textures on two coat roughnesses and the base colour (27
     live lobes) render in OSL the albedo of the stack (the sockets at the stack's values)."""
-    from lamella.bench.node_cost import textured_sockets
-    from lamella.bench.recompile import _stack
+    from lamella_dev.bench.node_cost import textured_sockets
+    from lamella_dev.bench.recompile import _stack
 
     stack = _stack("8 coats + media", None)
     live = textured_sockets(stack)

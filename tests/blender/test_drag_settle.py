@@ -4,7 +4,8 @@ what is saved never depends on the drag (``recompile`` module docstring)."""
 import numpy as np
 import pytest
 
-from lamella.core import Stack, suite
+from lamella.core import Stack
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, recompile  # noqa: E402

@@ -16,12 +16,12 @@ import json
 import numpy as np
 import pytest
 
-from lamella.bench import BENCH_DIR
-from lamella.core import suite
+from lamella_dev.bench import BENCH_DIR
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
-from lamella.bench import images  # noqa: E402
-from lamella.bench.image_references import IMAGE_REFERENCE_DIR, load_index  # noqa: E402
+from lamella_dev.bench import images  # noqa: E402
+from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR, load_index  # noqa: E402
 
 RECORDED = json.loads((BENCH_DIR / "images.json").read_text())
 MARGIN = {"rmse": (0.01, 1e-4), "rmse_8px": (0.01, 1e-4), "delta_e00": (0.01, 0.01), "flip": (0.01, 1e-3)}
@@ -58,7 +58,7 @@ def test_osl_render_does_not_drift_from_its_reference(case, tmp_path):
 def test_the_energy_conserving_references_stored_are_energy_conserving():
     """tests/references/images_multiple holds the cases rendered so far with Cycles' multiscatter
     GGX interfaces (``lamella image-references --interfaces multiple``), each recorded as such."""
-    from lamella.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
+    from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
 
     index = load_index(IMAGE_REFERENCE_DIR_MULTIPLE)
     assert index["cases"] and set(index["cases"]) <= set(suite.names())
@@ -68,7 +68,7 @@ def test_the_energy_conserving_references_stored_are_energy_conserving():
 
 def test_osl_render_against_the_energy_conserving_reference_does_not_drift(tmp_path):
     """One case of bench/images_multiple.json re-rendered (the gate of the single set, same margin)."""
-    from lamella.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
+    from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR_MULTIPLE
 
     stored = json.loads((BENCH_DIR / "images_multiple.json").read_text())
     old = next(r for r in stored["rows"] if r["case"] == "gold_coated" and r["engine"] == "cycles-osl")

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
-from lamella.bench.node_cost import _render, textured_sockets  # noqa: E402
-from lamella.bench.recompile import _stack  # noqa: E402
-from lamella.blender.render import assign_material, build_scene  # noqa: E402
+from lamella_dev.bench.node_cost import _render, textured_sockets  # noqa: E402
+from lamella_dev.bench.recompile import _stack  # noqa: E402
+from lamella_dev.render import assign_material, build_scene  # noqa: E402
 from lamella.core.backends.live_axes import MAX_AXES  # noqa: E402
 from lamella.core.backends.node_graph import emit_plan  # noqa: E402
 

@@ -11,10 +11,10 @@ on these stacks: median 0.4-8e-6, 99th percentile 4e-6 to 1.8e-4, relative L1 1e
 import numpy as np
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
-from lamella.blender.render import render_stack  # noqa: E402
+from lamella_dev.render import render_stack  # noqa: E402
 
 from .test_osl_exactness import SUN, SUN_BEHIND, _load  # noqa: E402
 
@@ -35,7 +35,7 @@ CASES = [
 def test_node_group_in_cycles_equals_the_osl_shader(case, behind):
     """Every listed stack, and eight coats with media (27 lobes merged to the automatic budget)."""
     if case == "8 coats + media":
-        from lamella.bench.recompile import _stack
+        from lamella_dev.bench.recompile import _stack
 
         stack = _stack(case, None)
     else:
@@ -64,7 +64,7 @@ def test_every_suite_stack_renders_in_cycles_without_osl_and_in_eevee(case):
     a negative blue value (down to -2.2e-3, colours outside Rec.709), which a sampled path can
     reach (a Glossy BSDF there can render a pixel at -1e-6)."""
     from lamella.blender.osl_compile import capture_stderr
-    from lamella.blender.render import assign_material, build_scene, render_scene, use_eevee
+    from lamella_dev.render import assign_material, build_scene, render_scene, use_eevee
 
     sc, sphere = build_scene("white-furnace", 24, 1)
     assign_material(sphere, suite.load(case), "cycles-nodes")
@@ -114,7 +114,7 @@ def test_staged_group_reads_its_table_alike_in_eevee_and_cycles(case, socket):
     between the engines: `lamella bench eevee-gap` measures that part.) Measured: median 3-4e-4,
     99th percentile 1.3-3.5e-3; with the table read by Blender's Smart (mipmapped) interpolation
     instead, the median is 2.9e-3."""
-    from lamella.blender.render import assign_material, build_scene, render_scene, use_eevee
+    from lamella_dev.render import assign_material, build_scene, render_scene, use_eevee
 
     sc, sphere = build_scene("sphere-sun", RES, 1)
     sc.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0

@@ -15,11 +15,11 @@ import math
 import numpy as np
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 from lamella.core.backends import staging
 
 pytest.importorskip("bpy")
-from lamella.blender.render import render_stack  # noqa: E402
+from lamella_dev.render import render_stack  # noqa: E402
 
 RES = 48
 SUN = np.array([0.0, -1.0, 1.0]) / math.sqrt(2.0)

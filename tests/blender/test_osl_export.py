@@ -10,7 +10,8 @@ import sys
 
 import pytest
 
-from lamella.core import luts, suite
+from lamella.core import luts
+from lamella_dev import suite
 from lamella.core.backends.osl import VIEW_LINES, VIEW_TARGETS, emit_osl
 from lamella.core.backends.osl_bundle import README, TABLES_DIR, write_bundle
 
@@ -26,7 +27,7 @@ README_ROW = re.compile(r"^\| `(\w+)` \| ([^|]+) \| `([^`]*)` \| ([^|]+) \|$", r
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "lamella.cli", "export-osl", *args], capture_output=True, text=True)
+    return subprocess.run([sys.executable, "-m", "lamella_dev.cli", "export-osl", *args], capture_output=True, text=True)
 
 
 def _compile(osl, oso):

@@ -1,7 +1,7 @@
 """OSL shaders read the look-up tables in this Blender as numpy does.
 
 A shader whose live part reads Lamella's look-up tables does so through OSL's ``texture()`` on the
-EXR files (``osl/lamella_luts.h``). Blender up to 5.0 read those through OpenImageIO, t = 0 at a
+EXR files (``lamella/data/osl/lamella_luts.h``). Blender up to 5.0 read those through OpenImageIO, t = 0 at a
 file's first row; from 5.1 Cycles reads them through its own image cache, t = 0 at the last row.
 The files hold each atlas above its mirror image so that both give the same values
 (``luts.to_file``). A probe shader reads every table at the coordinates of the shading point and
@@ -67,7 +67,7 @@ def _render_probe(source: str):
     import bpy
 
     from lamella.blender.osl_compile import assign_script
-    from lamella.blender.render import build_scene, render_scene, sphere_material
+    from lamella_dev.render import build_scene, render_scene, sphere_material
 
     sc, sphere = build_scene("sphere-env", RES, 1)
     sc.cycles.filter_width = 0.01
@@ -117,7 +117,7 @@ def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon
     (the atlas alone, read at t) would read wrong rows now: both are reported and rebuilt at the
     next render, as other damage is."""
     from lamella.blender import material_nodes, recompile
-    from lamella.core import suite
+    from lamella_dev import suite
     from lamella.blender import api
 
     from .addon_helpers import new_material

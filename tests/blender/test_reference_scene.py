@@ -1,5 +1,5 @@
-"""The brute-force image reference (stack as nested interface spheres, lamella.blender.reference_scene)
-is judged by the BRDF-space stochastic reference (lamella.core.reference): under a white furnace
+"""The brute-force image reference (stack as nested interface spheres, lamella_dev.reference_scene)
+is judged by the BRDF-space stochastic reference (lamella_dev.reference): under a white furnace
 every sphere pixel is the stack's directional albedo for that pixel's view, so rings of pixels at a
 given view angle must match ``reference.albedo`` at that angle.
 
@@ -19,11 +19,11 @@ are refused with the layer named.
 import numpy as np
 import pytest
 
-from lamella.core import reference, suite
+from lamella_dev import reference, suite
 
 pytest.importorskip("bpy")
-from lamella.blender.reference_scene import absorption_densities, interface_radii  # noqa: E402
-from lamella.blender.render import render_stack  # noqa: E402
+from lamella_dev.reference_scene import absorption_densities, interface_radii  # noqa: E402
+from lamella_dev.render import render_stack  # noqa: E402
 
 RES = 64
 
@@ -120,7 +120,7 @@ def test_bare_conductor_pins_tangent_rotation_and_axes():
     environment; 0.0024 while the models left that light out, against the single-scattering
     sphere); with the rotation mirrored 0.148, with the axes swapped 0.223."""
     from lamella.core import Stack
-    from lamella.core.image_metrics import block_rmse
+    from lamella_dev.image_metrics import block_rmse
 
     d = {"layers": [], "base": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603],
                                 "roughness": [0.02, 0.2], "rotation": 0.5}}
@@ -175,7 +175,7 @@ def _band_means(px, bands=((0.0, 20.0), (25.0, 35.0), (55.0, 65.0), (70.0, 80.0)
 def _relative_to_stochastic_albedo(stack, px, bands=((0.0, 20.0), (25.0, 35.0), (55.0, 65.0))):
     """|band mean - reference.albedo| / reference.albedo per band and channel, the reference taken
     at the band's own pixel angles (2-degree bins) and averaged like the pixels."""
-    from lamella.core import reference
+    from lamella_dev import reference
 
     theta = view_angles(px.shape[0])
     out = []
@@ -205,7 +205,7 @@ def test_fog_over_gold_reproduces_the_stochastic_albedo():
 
 
 def test_shell_volumes_split_scattering_over_nested_spheres():
-    from lamella.blender.reference_scene import shell_volumes
+    from lamella_dev.reference_scene import shell_volumes
 
     d = 0.004
     (v,) = shell_volumes(_stack([dict(FOG, sigma_a=[0.1, 0.2, 0.3])], GOLD), d)
@@ -226,14 +226,14 @@ def test_shell_volumes_split_scattering_over_nested_spheres():
     dict(FOG, thickness=0.5),  # thinner: a scattering density cannot be subtracted
 ])
 def test_scattering_that_would_leak_into_lower_coats_is_refused(below):
-    from lamella.blender.reference_scene import shell_volumes
+    from lamella_dev.reference_scene import shell_volumes
 
     with pytest.raises(ValueError, match="coat 0: its scattering .* coat 1 below it"):
         shell_volumes(_stack([FOG, below], GOLD))
 
 
 def test_glass_under_a_medium_is_refused():
-    from lamella.blender.reference_scene import shell_volumes
+    from lamella_dev.reference_scene import shell_volumes
 
     glass = {"type": "dielectric", "ior": 1.5, "roughness": 0.1}
     with pytest.raises(ValueError, match="coat 0: the dielectric base"):
@@ -247,7 +247,7 @@ def test_scattering_coat_builds_and_renders():
     raised for the volume's random walk."""
     import bpy
 
-    from lamella.blender.reference_scene import MEDIUM_BOUNCES, SHELL_THICKNESS
+    from lamella_dev.reference_scene import MEDIUM_BOUNCES, SHELL_THICKNESS
 
     coat = {"ior": 1.5, "roughness": 0.05, "thickness": 0.5, "sigma_a": [1.0, 0.2, 1.0], "sigma_s": [0.7] * 3,
             "g": 0.6}
@@ -321,8 +321,8 @@ def test_pure_medium_boundary_is_invisible():
     sun's light entirely (a delta light behind a delta interface)."""
     import bpy
 
-    from lamella.blender.reference_scene import build_reference
-    from lamella.blender.render import build_scene
+    from lamella_dev.reference_scene import build_reference
+    from lamella_dev.render import build_scene
 
     stack = _stack([{"ior": 1.0, "roughness": 0.0}], dict(GOLD, roughness=0.0))
     images = []
@@ -343,8 +343,8 @@ def test_media_are_sampled_as_homogeneous():
     renders the same image as with its defaults."""
     import bpy
 
-    from lamella.blender.reference_scene import build_reference
-    from lamella.blender.render import build_scene
+    from lamella_dev.reference_scene import build_reference
+    from lamella_dev.render import build_scene
 
     images = []
     for rate, steps in ((1.0, 1024), (0.01, 2)):

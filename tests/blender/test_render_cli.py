@@ -13,7 +13,7 @@ def test_render_env_writes_a_linear_exr(tmp_path, engine):
     import OpenEXR
 
     out = tmp_path / "r.exr"
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "render", "gold_coated", "--scene", "sphere-env",
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "render", "gold_coated", "--scene", "sphere-env",
                         "--res", "32", "--spp", "4", "--engine", engine, "--out", str(out)],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -29,7 +29,7 @@ def test_demo_renders_spheres_and_a_contact_sheet(tmp_path):
     """`make demo` (the main job): EXR + PNG per stack and a contact sheet."""
     import matplotlib.image as mpimg
 
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "demo", "--cases", "gold_coated,four_coats",
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "demo", "--cases", "gold_coated,four_coats",
                         "--res", "32", "--render-spp", "4", "--out", str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
     for name in ("gold_coated", "four_coats"):

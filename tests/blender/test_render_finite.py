@@ -4,10 +4,10 @@ sphere's silhouette, where smooth-shaded normals face away from the viewer (N.I 
 import numpy as np
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
-from lamella.blender.render import render_stack  # noqa: E402
+from lamella_dev.render import render_stack  # noqa: E402
 
 EXAMPLES = ["four_coats", "coated_glass"]
 # every stack kind: the suite, the media / diffuse / glass / ENDF-sized cases, and the examples

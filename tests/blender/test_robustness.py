@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from lamella.core import StackError, suite
+from lamella.core import StackError
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, osl_compile, recompile  # noqa: E402

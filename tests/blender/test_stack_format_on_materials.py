@@ -3,7 +3,8 @@ current format, a file from a newer Lamella opens untouched and says why, and an
 migrated on load (``lamella.blender.versioning``)."""
 import pytest
 
-from lamella.core import stack_format, suite
+from lamella.core import stack_format
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, recompile  # noqa: E402

@@ -5,7 +5,7 @@ and node groups flat and the material showing the last valid stack."""
 import pytest
 
 pytest.importorskip("bpy")
-from lamella.bench import stress  # noqa: E402
+from lamella_dev.bench import stress  # noqa: E402
 
 
 def test_render_grid_of_extreme_stacks(addon):

@@ -1,4 +1,4 @@
-"""Stacks used across the unit tests (the accuracy suite lives in lamella.core.suite)."""
+"""Stacks used across the unit tests (the accuracy suite lives in lamella_dev.suite)."""
 GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}
 
 

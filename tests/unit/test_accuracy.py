@@ -12,9 +12,9 @@ import json
 import numpy as np
 import pytest
 
-from lamella.bench import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
-from lamella.bench.accuracy import MODELS, evaluate_case, load_reference
-from lamella.core import suite
+from lamella_dev.bench import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
+from lamella_dev.bench.accuracy import MODELS, evaluate_case, load_reference
+from lamella_dev import suite
 from lamella.core.stack import Stack
 
 RECORDED = json.loads((BENCH_DIR / "accuracy.json").read_text())
@@ -61,7 +61,7 @@ def test_every_case_has_a_stored_reference():
 def test_every_case_has_a_stored_multiple_scattering_reference():
     """The energy-conserving yardstick: every suite case stored, made with multiple-scattering
     interfaces, of the stack as it is now."""
-    from lamella.bench import REFERENCE_DIR_MULTIPLE
+    from lamella_dev.bench import REFERENCE_DIR_MULTIPLE
 
     assert sorted(p.stem for p in REFERENCE_DIR_MULTIPLE.glob("*.npz")) == sorted(suite.names())
     for name in suite.names():
@@ -72,7 +72,7 @@ def test_every_case_has_a_stored_multiple_scattering_reference():
 
 def test_pending_references_match_their_stacks():
     """The BRDF references of cases awaiting image references are of the stacks as they are now."""
-    from lamella.bench.accuracy import PENDING_DIR
+    from lamella_dev.bench.accuracy import PENDING_DIR
 
     pending = suite.pending_descriptions()
     for path in PENDING_DIR.glob("*.npz"):
@@ -158,7 +158,7 @@ def test_an_added_incidence_keeps_the_stored_ones(tmp_path):
     as they were (same arrays), the file's angles stay sorted and its meta records the addition."""
     import shutil
 
-    from lamella.bench.accuracy import compute_references
+    from lamella_dev.bench.accuracy import compute_references
 
     shutil.copy(REFERENCE_DIR / "gold_coated.npz", tmp_path / "gold_coated.npz")
     before = load_reference("gold_coated", tmp_path)

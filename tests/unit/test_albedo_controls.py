@@ -2,7 +2,7 @@
 coat over a smooth conductor matches the energy-conserving walk at every absorption and angle."""
 import numpy as np
 
-from lamella.bench import albedo_controls
+from lamella_dev.bench import albedo_controls
 
 
 def test_a_smooth_coat_over_smooth_gold_is_exact_at_every_absorption():

@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from lamella.cli import main
+from lamella_dev.cli import main
 
 
 def test_lobes_prints_every_model(capsys):
@@ -31,7 +31,7 @@ def test_lobes_reports_unsupported_stacks(tmp_path, capsys):
 def test_bad_stack_names_layer_and_field(tmp_path):
     p = tmp_path / "bad.json"
     p.write_text(json.dumps({"layers": [{"ior": 1.5, "roughness": 2.0}], "base": {"type": "conductor"}}))
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", str(p), "--wi", "0"],
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "lobes", str(p), "--wi", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert "coat 0, field 'roughness'" in r.stderr
@@ -55,7 +55,7 @@ def test_plot_of_glass_has_a_transmitted_row(tmp_path):
 
 def test_trapping_bench_writes_its_table(tmp_path):
     """`lamella bench trapping` (bench/trapping.md): every variant at every angle, reference and models."""
-    from lamella.bench import trapping
+    from lamella_dev.bench import trapping
 
     md = trapping.run(tmp_path, spp=2048)
     rows = [line for line in md.read_text().splitlines() if line.startswith("| ") and "°" in line]
@@ -70,9 +70,9 @@ def test_trapping_bench_writes_its_table(tmp_path):
 def test_malformed_stack_files_exit_with_a_message_not_a_traceback(tmp_path, content, message):
     p = tmp_path / "bad.json"
     p.write_bytes(content if isinstance(content, bytes) else content.encode())
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", str(p), "--wi", "0"],
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "lobes", str(p), "--wi", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and message in r.stderr and "Traceback" not in r.stderr, r.stderr[-2000:]
-    r = subprocess.run([sys.executable, "-m", "lamella.cli", "lobes", "x" * 5000, "--wi", "0"],
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "lobes", "x" * 5000, "--wi", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]

@@ -6,7 +6,8 @@ paths, the light beyond it is returned along long ones."""
 import numpy as np
 import pytest
 
-from lamella.core import api, reference, suite
+from lamella.core import api
+from lamella_dev import reference, suite
 from lamella.core.stack import Stack
 
 STACKS = {

@@ -1,9 +1,9 @@
-"""The lobe-count rules the EEVEE closures bench compares (lamella.bench.eevee_closures)."""
+"""The lobe-count rules the EEVEE closures bench compares (lamella_dev.bench.eevee_closures)."""
 import math
 
 import pytest
 
-from lamella.bench.eevee_closures import drop, merge
+from lamella_dev.bench.eevee_closures import drop, merge
 
 LOBES = [("reflection", (0.04, 0.04, 0.04), 0.02), ("backscatter", (0.1, 0.1, 0.1), 0.6),
          ("reflection", (0.3, 0.2, 0.1), 0.05), ("reflection", (0.2, 0.2, 0.2), 0.5),

@@ -8,8 +8,8 @@ view direction, as the paper has it, it lost up to a third of its weight below t
 expected to fail (strict: a fix shows)."""
 import pytest
 
-from lamella.bench import energy
-from lamella.core import suite
+from lamella_dev.bench import energy
+from lamella_dev import suite
 
 # the brushed base under a coat at 75 degrees delivers 2.6 % more than its weight: the anisotropic
 # lobe's normaliser is 1 / GD at its RMS roughness

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from lamella.bench import BENCH_DIR, holdout
+from lamella_dev.bench import BENCH_DIR, holdout
 from lamella.core.stack import Stack
 
 RECORDED = BENCH_DIR / "holdout.json"
@@ -29,7 +29,7 @@ def test_auto_on_the_holdout_set_keeps_its_recorded_figures(refs):
     deterministic, so only a model change moves them, and then bench/holdout.json is recorded again."""
     from .test_accuracy import same_figure
 
-    from lamella.bench.accuracy import evaluate_case
+    from lamella_dev.bench.accuracy import evaluate_case
 
     then = {(r["case"], r["wi"]): r for r in json.loads(RECORDED.read_text())["rows"] if r["model"] == "auto"}
     now = {}

@@ -10,10 +10,10 @@ traced part is too large for Cycles' SVM.
 import numpy as np
 import pytest
 
-from lamella.bench.linked_tables import rows as rows_of
-from lamella.bench.node_cost import textured_sockets
-from lamella.bench.recompile import STACKS
-from lamella.bench.recompile import _stack as _case_stack
+from lamella_dev.bench.linked_tables import rows as rows_of
+from lamella_dev.bench.node_cost import textured_sockets
+from lamella_dev.bench.recompile import STACKS
+from lamella_dev.bench.recompile import _stack as _case_stack
 from lamella.core.backends import staging
 from lamella.core.backends.live_axes import MAX_AXES, axis_of, lookup_axes
 from lamella.core.backends.node_graph import emit_plan, evaluate_plan

@@ -1,8 +1,8 @@
 """`lamella bench lobe-floor`: the scan of the base lobe's roughness finds at least what the model's
 own roughness gives, on the cases it selects; the wider shapes (two lobes, a tilted lobe) contain
 the one lobe of the floor, so they find no worse (up to their coarser grids)."""
-from lamella.bench import lobe_floor
-from lamella.core import suite
+from lamella_dev.bench import lobe_floor
+from lamella_dev import suite
 
 
 def test_cases_are_one_isotropic_coat_over_a_conductor():

@@ -3,8 +3,9 @@ stays within the figures quoted in bench/luts.md."""
 import numpy as np
 import pytest
 
-from lamella.bench.luts_error import METALS, _integrate
+from lamella_dev.bench.luts_error import METALS, _integrate
 from lamella.core import luts
+from lamella_dev import luts_build
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.models.fgd import fgd_conductor, fgd_dielectric, gd
 from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
@@ -22,7 +23,7 @@ def test_stored_tables_have_their_shape_and_range(name):
 
 def test_stored_tables_match_the_generator():
     """Regenerating (about 10 s) reproduces the committed EXR files: they are not stale."""
-    fresh = luts.generate_ggx_albedo()
+    fresh = luts_build.generate_ggx_albedo()
     for name, arr in fresh.items():
         np.testing.assert_allclose(luts.table(name), arr, atol=2e-6)
 
@@ -35,7 +36,7 @@ def test_stored_rough_dielectric_table_matches_the_generator(cell):
     alpha, eta = float(luts._alpha_nodes(luts.N_MS_ALPHA)[j]), float(luts._ms_eta_nodes(luts.N_MS_ETA)[k])
     s = luts.ms_sine(i / (luts.N_MS_X - 1.0), eta)
     assert luts.table("dielectric_rough_reflect")[i, j, k] == pytest.approx(
-        luts.dielectric_rough_reflect_cell(s, alpha, eta), abs=1e-6)
+        luts_build.dielectric_rough_reflect_cell(s, alpha, eta), abs=1e-6)
 
 
 @pytest.mark.parametrize("cell", [(3, 5, 2), (20, 9, 4), (24, 12, 3), (31, 15, 0), (40, 7, 1)])
@@ -45,7 +46,7 @@ def test_stored_trapped_escape_table_matches_the_generator(cell):
     alpha, eta = float(luts._alpha_nodes(luts.N_MS_ALPHA)[j]), float(luts._ms_eta_nodes(luts.N_MS_ETA)[k])
     s = luts.ms_sine(i / (luts.N_MS_X - 1.0), eta)
     assert luts.table("dielectric_trapped_escape")[i, j, k] == pytest.approx(
-        luts.dielectric_trapped_escape_cell(s, alpha, eta), abs=1e-6)
+        luts_build.dielectric_trapped_escape_cell(s, alpha, eta), abs=1e-6)
 
 
 def test_trapped_escape_is_exact_in_its_limits_and_traps_from_the_denser_side():
@@ -54,14 +55,14 @@ def test_trapped_escape_is_exact_in_its_limits_and_traps_from_the_denser_side():
     index-matched interface lets everything through. From the denser side, past alpha 0.05, what
     a rough interface reflected crosses on its next arrival less easily than light arriving for
     the first time."""
-    from lamella.core.microsurface import _fresnel_dielectric
+    from lamella_dev.microsurface import _fresnel_dielectric
     from lamella.core.models.fgd import trapped_escape
 
     t = luts.table("dielectric_trapped_escape")
     r = luts.table("dielectric_rough_reflect")
     etas = luts._ms_eta_nodes(luts.N_MS_ETA)
     s = np.array([[luts.ms_sine(i / (luts.N_MS_X - 1.0), e) for e in etas] for i in range(luts.N_MS_X)])
-    f = _fresnel_dielectric(np.maximum(np.sqrt(1.0 - s * s), luts.MU_FLOOR), np.broadcast_to(etas, s.shape))
+    f = _fresnel_dielectric(np.maximum(np.sqrt(1.0 - s * s), luts_build.MU_FLOOR), np.broadcast_to(etas, s.shape))
     np.testing.assert_allclose(t[:, 0, :], 1.0 - f, atol=1e-6)
     assert (t[:, 1:, luts.N_MS_ETA // 2] == 1.0).all()
     ops = NumpyOps()
@@ -77,13 +78,13 @@ def test_trapped_escape_is_exact_in_its_limits_and_traps_from_the_denser_side():
 def test_rough_dielectric_table_is_exact_in_its_limits():
     """A smooth interface reflects its Fresnel factor, an index-matched one nothing, in the table
     and through the model's look-up (which hands over to the exact Fresnel factor near alpha 0)."""
-    from lamella.core.microsurface import _fresnel_dielectric
+    from lamella_dev.microsurface import _fresnel_dielectric
     from lamella.core.models.fresnel import fresnel_dielectric
 
     t = luts.table("dielectric_rough_reflect")
     etas = luts._ms_eta_nodes(luts.N_MS_ETA)
     s = np.array([[luts.ms_sine(i / (luts.N_MS_X - 1.0), e) for e in etas] for i in range(luts.N_MS_X)])
-    f = _fresnel_dielectric(np.maximum(np.sqrt(1.0 - s * s), luts.MU_FLOOR), np.broadcast_to(etas, s.shape))
+    f = _fresnel_dielectric(np.maximum(np.sqrt(1.0 - s * s), luts_build.MU_FLOOR), np.broadcast_to(etas, s.shape))
     np.testing.assert_allclose(t[:, 0, :], f, atol=1e-6)
     assert (t[:, :, luts.N_MS_ETA // 2] == 0.0).all()
     ops = NumpyOps()
@@ -103,7 +104,7 @@ def test_dielectric_reflectance_matches_the_microsurface_walk(mu, alpha, eta):
     critical angle of the denser side: an independent walk with other random numbers, 100,000
     walks (standard error at most 0.0016). Without the table, from the denser side, the
     single-scattering FGD misses up to 0.3 of it."""
-    from lamella.core import microsurface
+    from lamella_dev import microsurface
 
     k = 100_000
     wi = np.broadcast_to([np.sqrt(1.0 - mu * mu), 0.0, mu], (k, 3))
@@ -114,7 +115,7 @@ def test_dielectric_reflectance_matches_the_microsurface_walk(mu, alpha, eta):
 
 
 def test_stored_refraction_table_matches_the_generator():
-    np.testing.assert_allclose(luts.table("ggx_refract_albedo"), luts.generate_refract_albedo(), atol=2e-6)
+    np.testing.assert_allclose(luts.table("ggx_refract_albedo"), luts_build.generate_refract_albedo(), atol=2e-6)
 
 
 @pytest.mark.parametrize("eta,alpha,degrees", [(1.0, 0.05, 0.0), (1.0, 0.2, 0.0), (1.0, 0.45, 0.0),

@@ -210,7 +210,7 @@ def test_medium_shader_cost_does_not_depend_on_depth():
     both cost a table read per column and their closures, whatever the depth."""
     import re
 
-    from lamella.core import suite
+    from lamella_dev import suite
     from lamella.core.backends.osl import emit_osl
     from lamella.core.backends.staging import stage
 

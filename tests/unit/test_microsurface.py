@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lamella.core import microsurface as M
+from lamella_dev import microsurface as M
 
 MIRROR = (np.ones(3), np.full(3, 1e6))  # F = 1 at every angle
 GOLD = (np.array([0.143, 0.374, 1.442]), np.array([3.983, 2.385, 1.603]))

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import lamella.core as lc
-from lamella.core import reference
+from lamella_dev import reference
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.models import VARIANTS, variant
 from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
@@ -271,7 +271,7 @@ def test_fresnel_edges():
 def test_evaluate_can_leave_out_delta_lobes():
     """deltas=False drops the zero-roughness microfacet lobes (a smooth coat's reflection) and
     nothing else: rough lobes and a diffuse base's Lambertian lobe (roughness 0 by kind) stay."""
-    from lamella.core import suite
+    from lamella_dev import suite
 
     wi = directions([20.0])[0]
     wo = directions([5.0, 20.0, 40.0, 70.0])

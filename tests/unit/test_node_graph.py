@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from lamella.core import Stack, suite
+from lamella.core import Stack
+from lamella_dev import suite
 from lamella.core.backends import node_graph, staging
 from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
 from lamella.core.backends.numpy_ops import NumpyOps
@@ -146,7 +147,7 @@ def test_live_values_say_which_stacks_fit_cycles_svm():
     """Measured in Cycles 5.0 (bench/nodes.md): traced whole, every suite stack and four coats
     render without OSL; four coats with a medium run out of SVM stack. The estimate separates
     them. Staged, every one of them fits, eight coats with media too."""
-    from lamella.bench.recompile import _stack
+    from lamella_dev.bench.recompile import _stack
     from lamella.core.backends.node_graph import fits_svm
 
     assert all(fits_svm(emit_plan(suite.load(n), staged=False)) for n in CASES)

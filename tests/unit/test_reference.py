@@ -5,7 +5,7 @@ is what catches a missed or double-counted path in the next-event estimation."""
 import numpy as np
 import pytest
 
-from lamella.core import reference as R
+from lamella_dev import reference as R
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
 from lamella.core.models.ggx import ggx_d

@@ -37,7 +37,7 @@ def test_every_cited_file_exists():
         for where, line in _lines(path):
             for match in PATH.finditer(line):
                 cited = match.group(1)
-                if not any((base / cited).exists() for base in (ROOT, ROOT / "addon", ROOT / "addon" / "lamella")):
+                if not any((base / cited).exists() for base in (ROOT, ROOT / "addon", ROOT / "addon" / "lamella", ROOT / "addon" / "lamella_dev")):
                     missing.append(f"{where}: {cited}")
     assert not missing, "cited files that do not exist:\n" + "\n".join(missing)
 

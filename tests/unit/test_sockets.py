@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from lamella.core import suite
+from lamella_dev import suite
 from lamella.core.backends.closures import trace_closures
 from lamella.core.backends.sockets import by_param, params_of, sockets
 

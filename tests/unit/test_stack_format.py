@@ -5,9 +5,10 @@ from pathlib import Path
 
 import pytest
 
-from lamella.core import Stack, StackError, stack_format, suite
+from lamella.core import Stack, StackError, stack_format
+from lamella_dev import suite
 from lamella.core.presets import builtin
-from lamella.stack_format_page import PAGE, render
+from lamella_dev.stack_format_page import PAGE, render
 
 ROOT = Path(__file__).resolve().parents[2]
 GOLD = suite.load("gold_coated").to_dict()

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from lamella.bench import stress
+from lamella_dev.bench import stress
 from lamella.core.stack import Stack
 
 

@@ -165,7 +165,7 @@ def test_isotropic_stack_traces_without_anisotropy_code(model):
 def test_media_and_new_bases_trace_equal_to_numpy(case, model):
     """The transfer-matrix and ENDF models, the diffuse base and the transmission lobe trace like the rest:
     a finite graph, equal to the numpy backend (lower-hemisphere wo for the glass base)."""
-    from lamella.core import suite
+    from lamella_dev import suite
     from lamella.core.models import resolve
 
     st = suite.load(case)
@@ -189,7 +189,7 @@ def test_a_compiled_plan_evaluates_as_the_graph_walk():
     """``Tracer.evaluate`` with a plan runs compiled straight-line code from the plan's second
     call on: equal to walking the graph, and where the values it took as known are missing it
     walks the graph for them."""
-    from lamella.core import suite
+    from lamella_dev import suite
     from lamella.core.backends.closures import trace_closures
 
     traced = trace_closures(suite.load("fog_g09_d1"))

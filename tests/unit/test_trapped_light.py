@@ -3,12 +3,13 @@ below has mostly been turned past the critical angle by facets reflecting totall
 base returns it along the same steep directions, and it comes up through the coat far less easily
 than the first time. The adding equations count every round trip as the first, and a rough coat
 over gold returned up to 12 % too much green light at 60 degrees against the energy-conserving walk
-(``lamella.core.reference``, interfaces="multiple"). The adding family now counts the later round
+(``lamella_dev.reference``, interfaces="multiple"). The adding family now counts the later round
 trips with the table ``dielectric_trapped_escape`` (``adding_doubling._adding_energies``)."""
 import numpy as np
 import pytest
 
-from lamella.core import api, reference, suite
+from lamella.core import api
+from lamella_dev import reference, suite
 from lamella.core.stack import Stack
 
 GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "roughness": 0.01}

@@ -267,7 +267,7 @@ class CheckViews:
     grid's views (N, 3)."""
 
     def __init__(self, dirs, rows, wi):
-        from ..suite import wo_grid
+        from ..hemisphere import wo_grid
 
         self.dirs = dirs
         self.rows = np.asarray(rows, dtype=np.int64)

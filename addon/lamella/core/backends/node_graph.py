@@ -132,7 +132,7 @@ def _rgb_block(values: np.ndarray) -> np.ndarray:
 def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[float, float]:
     """The texture coordinates of table coordinates 0 and 1 on an axis of n nodes: the texel
     centres of rows ``offset`` and ``offset + n - 1`` of an image ``rows`` high (a coordinate in
-    between maps linearly, as ``lamella_tex`` in ``osl/lamella_luts.h``)."""
+    between maps linearly, as ``lamella_tex`` in ``lamella/data/osl/lamella_luts.h``)."""
     rows = rows or n
     return (offset + 0.5) / rows, (offset + n - 0.5) / rows
 

@@ -7,7 +7,7 @@ per-layer parameter a shader input (so the Script node shows it as a socket), an
 closure its kind names in the lobe-kind table (``lamella.core.lobe_kinds``), weighted by its energy
 times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al. 2021 Eq. 37; Cycles' single-scattering GGX
 closure reflects GD(wi, alpha), so weight e / GD makes the lobe reflect e). Table look-ups call
-the helpers of ``osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
+the helpers of ``lamella/data/osl/lamella_luts.h``, inlined here so the shader is standalone apart from the EXR
 tables in ``lut_dir``.
 
 The view direction is the one line that depends on the renderer (``view``, one of VIEW_TARGETS):
@@ -28,7 +28,7 @@ from .closures import trace_closures
 from .sockets import by_param, sockets
 from .trace import Expr, Tracer
 
-OSL_DIR = Path(__file__).resolve().parents[4] / "osl"
+OSL_DIR = Path(__file__).resolve().parents[2] / "data" / "osl"  # inside the package: every install emits OSL
 LUT_HEADER = "lamella_luts.h"
 ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure
 

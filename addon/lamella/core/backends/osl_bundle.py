@@ -182,7 +182,7 @@ def _tables_section(files: list[str], lut_default: str) -> list[str]:
         role = _TABLE_ROLES.get(name, "see lamella.core.luts")
         out.append(f"| `{TABLES_DIR}/{f}` | `{name}` | {' x '.join(map(str, shape))} | {layout} | {role} |")
     out += ["", "Tables are node-centred and read with linear interpolation, clamped at the edges "
-            "(`osl/lamella_luts.h`, inlined in the shader).", ""]
+            "(`lamella/data/osl/lamella_luts.h`, inlined in the shader).", ""]
     return out
 
 

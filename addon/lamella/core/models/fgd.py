@@ -139,12 +139,12 @@ def conductor_scattered(ops, mu, alpha, eta: RGB, k: RGB, single: RGB) -> RGB:
     blue (with F0, 3.1 %). The light leaves broad, and under a coat the models send it up as a Lambertian
     base's (``diffuse_transport.DiffuseUp``)."""
     e = gd(ops, mu, alpha)
-    lost = (1.0 - e) / ops.max(e, 1e-4)
+    lost = ops.max(1.0 - e, 0.0) / ops.max(e, 1e-4)  # GD <= 1; its table may exceed 1 in the last digit
     # With single = F E (F <= 1 a mean Fresnel factor) the total is F E + F F_avg (1 - E) <= 1; but
     # FGD and GD come from two tables, and for a mirror-like metal (F = 1) FGD may exceed GD in
     # their last digits: never more than what single scattering leaves
     return RGB(*(ops.min(s * fresnel_average(ops, lambda c, ee=ee, kk=kk: fresnel_conductor(ops, c, ee, kk)) * lost,
-                         1.0 - s)
+                         ops.max(1.0 - s, 0.0))
                  for s, ee, kk in zip(single, eta, k)))
 
 

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import Stack, api, reference, suite
+from lamella.core import Stack, api
+from .. import reference, suite
 from . import BENCH_DIR
 
 GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}

@@ -7,10 +7,10 @@ concentric copy of the same mesh, ``SHELL_THICKNESS`` further in, down to the ba
     r_i = 1 - i d      coat i-1 -> coat i     (dielectric_bsdf, coat i's alphas and rotation)
     r_n = 1 - n d      coat n-1 -> base       (the core: see "Bases" below)
 
-Each interface is shaded by ``osl/lamella_reference_interface.osl`` with the relative index of
+Each interface is shaded by ``data/osl/lamella_reference_interface.osl`` with the relative index of
 refraction across it; Cycles path-traces every internal reflection (bounce limits raised to
 ``BOUNCES``), so the image is the stack's full multiple-scattering answer for the microfacet model
-of ``lamella.core.reference`` -- no layer model involved. An index-matched smooth interface (a
+of ``lamella_dev.reference`` -- no layer model involved. An index-matched smooth interface (a
 pure medium: ior equal to the medium above, roughness 0, such as dust or fog) is a Transparent
 BSDF instead: it only marks where the medium begins, bends and reflects nothing, and lets shadow
 rays through. (A smooth dielectric_bsdf at eta = 1 is not invisible in Cycles: measured -0.4 % with
@@ -47,7 +47,7 @@ the stack is refused with a message naming the scattering coat.
 
 Cycles settings: every bounce limit (total, diffuse, glossy, transmission, volume, transparent) is
 ``BOUNCES``, or ``MEDIUM_BOUNCES`` when a coat scatters (the number of events
-``lamella.core.reference`` walks): in the white furnace a lossless medium of normal optical depth
+``lamella_dev.reference`` walks): in the white furnace a lossless medium of normal optical depth
 4 (g = 0.7) over a mirror renders 0.981-0.988 with 64 bounces and 0.999-1.000 with 256.
 The media have constant coefficients (no texture or attribute input), so Cycles 5.0 takes its
 homogeneous-volume path (no SD_HETEROGENEOUS_VOLUME flag): one shader evaluation per segment,
@@ -62,17 +62,17 @@ assumes. ``lamella image-references --thickness`` re-renders with another d to c
 """
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from ..core.backends.osl import OSL_DIR
-
 if TYPE_CHECKING:
-    from ..core.stack import Stack
+    from lamella.core.stack import Stack
 
 SHELL_THICKNESS = 0.004
 BOUNCES = 64
 MEDIUM_BOUNCES = 256  # every bounce limit when a coat scatters
 SHADER_FILE = "lamella_reference_interface.osl"
+SHADER_DIR = Path(__file__).resolve().parent / "data" / "osl"
 BASE_TYPES = ("conductor", "diffuse", "dielectric")
 MATCHED_ETA = 1e-9  # |eta_rel - 1| below this (and roughness 0): an invisible, Transparent boundary
 
@@ -178,10 +178,10 @@ def shell_volumes(stack: Stack, thickness: float = SHELL_THICKNESS) -> list[Shel
 
 
 def _script_node(bpy, nt, text, params: dict):
-    from .osl_compile import assign_script
+    from lamella.blender.osl_compile import assign_script
 
     node = nt.nodes.new("ShaderNodeScript")
-    assign_script(node, text, (OSL_DIR / SHADER_FILE).read_text(), SHADER_FILE)
+    assign_script(node, text, (SHADER_DIR / SHADER_FILE).read_text(), SHADER_FILE)
     for key, value in params.items():
         sock = node.inputs[key]
         sock.default_value = (*value, 1.0) if isinstance(value, tuple) and len(sock.default_value) == 4 else value
@@ -232,7 +232,7 @@ def _dielectric(eta: float, roughness, rotation: float, energy_conserving: int =
                       "conductor": 0, "energy_conserving": energy_conserving}
 
 
-INTERFACES = ("single", "multiple")  # as lamella.core.reference.INTERFACES
+INTERFACES = ("single", "multiple")  # as lamella_dev.reference.INTERFACES
 
 
 def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS, interfaces: str = "single"):

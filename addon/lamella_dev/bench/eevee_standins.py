@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import lobe_kinds, suite
-from ..core.api import _run
-from ..core.backends.numpy_ops import NumpyOps
+from lamella.core import lobe_kinds
+from .. import suite
+from lamella.core.api import _run
+from lamella.core.backends.numpy_ops import NumpyOps
 from . import BENCH_DIR
 
 

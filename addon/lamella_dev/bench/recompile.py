@@ -16,8 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..core import suite
-from ..core.stack import MAX_COATS
+from .. import suite
+from lamella.core.stack import MAX_COATS
 from . import BENCH_DIR
 
 REPEATS = 8
@@ -25,7 +25,7 @@ STACKS = (("1 coat", "gold_coated"), ("4 coats", "four_coats"), ("4 coats + medi
 
 
 def _stack(label, case):
-    from ..core.stack import Stack
+    from lamella.core.stack import Stack
 
     if case == "gold_coated":
         return suite.load(case)
@@ -44,7 +44,7 @@ def _stack(label, case):
 def _use(scene, setting: str) -> None:
     """EEVEE, or Cycles with OSL on the CPU."""
     if setting == "eevee":
-        from ..blender.render import use_eevee
+        from ..render import use_eevee
 
         use_eevee(scene)
     else:
@@ -56,9 +56,9 @@ def _use(scene, setting: str) -> None:
 def run(out_dir: Path = BENCH_DIR) -> Path:
     import bpy
 
-    from ..blender import api, recompile, register
-    from ..core.backends import closures, staging
-    from ..blender import osl_compile
+    from lamella.blender import api, recompile, register
+    from lamella.core.backends import closures, staging
+    from lamella.blender import osl_compile
 
     register()
     osl_compile.set_cache_root(Path(tempfile.mkdtemp(prefix="lamella-bench-")))
@@ -98,7 +98,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
                 if not full:
                     bpy.ops.lamella.layer_remove(material=mat.name)
                     recompile.flush_groups()
-        from ..core.backends.osl import emit_osl
+        from lamella.core.backends.osl import emit_osl
 
         closures._TRACES.clear()  # from scratch: nothing traced or evaluated before
         staging._EVALUATED.clear()

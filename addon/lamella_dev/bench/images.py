@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import suite
-from ..core.exr import read_rgba
-from ..core.image_metrics import delta_e00_map, display_srgb, image_errors
+from .. import suite
+from lamella.core.exr import read_rgba
+from ..image_metrics import delta_e00_map, display_srgb, image_errors
 from ..plots import save_figure
 from . import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
@@ -29,7 +29,7 @@ ENGINES = ("cycles-osl", "principled", "eevee", "eevee-principled")
 def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget=BUDGET):
     """(image, seconds). EEVEE renders twice and times the second render: its first compiles the
     material's shader (``bench/nodes.md`` has that time), the frame time is the second's."""
-    from ..blender.render import assign_material, build_scene, render_scene, render_stack
+    from ..render import assign_material, build_scene, render_scene, render_stack
 
     if not engine.startswith("eevee"):
         return render_stack(suite.load(name), "sphere-env", res=res, spp=spp, engine=engine, seed=0, budget=budget)

@@ -20,15 +20,15 @@ _ERRORS = re.compile(r"(out of SVM stack space|Uniform block \w+ too big \(\d+/\
 
 
 def _render(sc):
-    from ..blender.osl_compile import capture_stderr
-    from ..blender.render import render_scene
+    from lamella.blender.osl_compile import capture_stderr
+    from ..render import render_scene
 
     (px, seconds), err = capture_stderr(lambda: render_scene(sc), fds=(1, 2))
     return px, seconds, sorted(set(m.group(1) for m in _ERRORS.finditer(err)))
 
 
 def _scene_with(stack, engine):
-    from ..blender.render import assign_material, build_scene
+    from ..render import assign_material, build_scene
 
     sc, sphere = build_scene("sphere-env", RES, SPP)
     assign_material(sphere, stack, engine)
@@ -43,8 +43,8 @@ def measure() -> list[dict]:
     os.environ["MESA_SHADER_CACHE_DISABLE"] = "true"
     import bpy
 
-    from ..core.backends.node_graph import emit_plan, partition
-    from ..blender.node_group import build_group
+    from lamella.core.backends.node_graph import emit_plan, partition
+    from lamella.blender.node_group import build_group
 
     rows = []
     for label, case in STACKS:
@@ -74,8 +74,8 @@ def measure() -> list[dict]:
 def textured_sockets(stack) -> list[str]:
     """Textures on two coat roughnesses (the first two coats) and the base colour: the sockets a
     material with such links reads live."""
-    from ..core.backends.closures import trace_closures
-    from ..core.backends.sockets import socket_names
+    from lamella.core.backends.closures import trace_closures
+    from lamella.core.backends.sockets import socket_names
 
     t = trace_closures(stack).tracer
     names = socket_names({k: 0.0 for k in t.params})
@@ -92,8 +92,8 @@ def linked_rows() -> list[dict]:
     the mean radiance of the group in Cycles without OSL against the OSL shader (same links)."""
     import numpy as np
 
-    from ..core.backends.node_graph import emit_plan, live_values
-    from ..blender.render import assign_material, build_scene, render_scene
+    from lamella.core.backends.node_graph import emit_plan, live_values
+    from ..render import assign_material, build_scene, render_scene
 
     rows = []
     for label, case in STACKS:

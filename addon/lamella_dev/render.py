@@ -125,8 +125,8 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
     bpy = _bpy()
     mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":
-        from ..core.backends.osl import osl_shader
-        from .osl_compile import assign_script
+        from lamella.core.backends.osl import osl_shader
+        from lamella.blender.osl_compile import assign_script
 
         node = nt.nodes.new("ShaderNodeScript")
         name = f"lamella_{stack.name or 'stack'}.osl"
@@ -134,8 +134,8 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
         assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.socket_values)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine in ("cycles-nodes", "eevee"):
-        from ..core.backends.node_graph import emit_plan
-        from .node_group import build_group, group_name
+        from lamella.core.backends.node_graph import emit_plan
+        from lamella.blender.node_group import build_group, group_name
 
         group = build_group(emit_plan(stack, model, budget=budget, staged=staged, live=live,
                                       image=f".lamella_table {mat.name}", live_axes=live_axes),
@@ -203,8 +203,8 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
     as in ``build_scene``; ``model`` the layered model of the cycles-osl shader; ``interfaces`` the
     reference's rough interfaces (``reference_scene.INTERFACES``)."""
-    from ..core.exr import write_rgba
-    from ..core.stack import Stack
+    from lamella.core.exr import write_rgba
+    from lamella.core.stack import Stack
 
     stack = Stack.coerce(stack)
     sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed, open_back=open_back)
@@ -226,7 +226,7 @@ def render_scene(sc):
     """Render scene ``sc`` as it is set up: (RGBA float32 array, top row first; render seconds)."""
     import tempfile
 
-    from ..core.exr import read_rgba
+    from lamella.core.exr import read_rgba
 
     bpy = _bpy()
     with tempfile.TemporaryDirectory() as tmp:

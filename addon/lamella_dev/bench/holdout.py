@@ -1,6 +1,6 @@
 """`lamella bench holdout`: the models on stacks no one tuned them on.
 
-The suite's stacks (``lamella.core.suite``) are the ones every model change was measured on, so a
+The suite's stacks (``lamella_dev.suite``) are the ones every model change was measured on, so a
 change can fit them and not carry over. The hold-out set is drawn at random, once, from the
 ranges artists use (``draw``: one to three coats, clear / absorbing / scattering, isotropic or
 brushed, over a measured metal, a diffuse or a glass base), with a fixed seed, and its
@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import metals, suite
-from ..core.stack import Stack
+from lamella.core import metals
+from .. import suite
+from lamella.core.stack import Stack
 from . import BENCH_DIR, REPO
 from .accuracy import MODELS, _angle_arrays, evaluate_case, load_reference
 
@@ -145,7 +146,7 @@ def run(ref_dir: Path = HOLDOUT_DIR, out_dir: Path = BENCH_DIR, models=MODELS) -
     jpath.write_text(json.dumps({"models": list(models), "rows": rows}, indent=1) + "\n")
     lines = ["# The models on stacks drawn at random (the hold-out set)", "",
              f"`lamella bench holdout`: {len(refs)} stacks drawn once from the ranges artists use "
-             f"(`lamella.bench.holdout.draw`, seed {SEED}), never used to tune a model, against "
+             f"(`lamella_dev.bench.holdout.draw`, seed {SEED}), never used to tune a model, against "
              "energy-conserving references (multiple-scattering interfaces, "
              f"{refs[next(iter(refs))]['meta']['spp']} walkers per direction, `tests/references/brdf_holdout`). "
              "Relative L1 / albedo error, reflected side, as in `bench/accuracy.md`.", "",

@@ -45,13 +45,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import api as core_api
-from ..core.backends.closures import declared_params, structure_of, trace_closures
-from ..core.backends.numpy_ops import NumpyOps
-from ..core.layers import BASE_KINDS
-from ..core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
-from ..core.models import UnsupportedStack
-from ..core.stack import MAX_COATS, Stack
+from lamella.core import api as core_api
+from lamella.core.backends.closures import declared_params, structure_of, trace_closures
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.layers import BASE_KINDS
+from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
+from lamella.core.models import UnsupportedStack
+from lamella.core.stack import MAX_COATS, Stack
 from . import BENCH_DIR
 
 EDGE_P = 0.3  # probability that a field takes one of its edge values
@@ -212,7 +212,7 @@ def check_stack(stack, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> boo
 def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
     """Whether the baked path of ``stack`` (auto model, automatic lobe budget) fails: the staged
     shader's f cos at (wi, wo), float32, not finite or negative, or staging raises."""
-    from ..core.backends.staging import evaluate_staged, stage
+    from lamella.core.backends.staging import evaluate_staged, stage
 
     try:
         f = evaluate_staged(stage(stack), wi, wo, np.float32)
@@ -350,7 +350,7 @@ def render_grid(res: int = 48, spp: int = 16, progress: bool = True, cases=None)
     checks (see the module's docstring)."""
     from tqdm import tqdm
 
-    from ..blender.render import assign_material, build_scene, render_scene
+    from ..render import assign_material, build_scene, render_scene
 
     stacks = extreme_stacks()
     rows = []
@@ -399,8 +399,9 @@ def soak(edits: int = SOAK_EDITS, save_every: int = SOAK_SAVE_EVERY, seed: int =
     import bpy
     from tqdm import tqdm
 
-    from ..blender import api, recompile
-    from ..core import presets, suite
+    from lamella.blender import api, recompile
+    from lamella.core import presets
+    from .. import suite
 
     rng = np.random.default_rng(seed)
     folder = Path(folder or tempfile.mkdtemp())
@@ -440,7 +441,7 @@ def soak(edits: int = SOAK_EDITS, save_every: int = SOAK_SAVE_EVERY, seed: int =
                 recompile.flush()
                 recompile.flush_groups()
         except Exception as e:  # noqa: BLE001 - StackError expected for invalid input
-            from ..core.stack import StackError
+            from lamella.core.stack import StackError
 
             if not isinstance(e, StackError):
                 raise
@@ -501,7 +502,7 @@ def write_report(out: Path, stacks: dict, grid: list | None, soaked: dict | None
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "stress.json").write_text(json.dumps({"stacks": stacks, "grid": grid, "soak": soaked}, indent=1))
-    lines = ["# Numerical stress", "", f"`{command}` (this machine). See `lamella/bench/stress.py` for what is checked.", "",
+    lines = ["# Numerical stress", "", f"`{command}` (this machine). See `lamella_dev/bench/stress.py` for what is checked.", "",
              "## Random stacks", "",
              f"{stacks['stacks']:,} stacks over the schema's whole range, edges weighted ({EDGE_P:.0%} of fields at an "
              f"edge), batches of {stacks['per_structure']} per structure, {stacks['directions']} view directions each "

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import suite
-from ..core.stack import Stack
+from .. import suite
+from lamella.core.stack import Stack
 from . import BENCH_DIR
 
 RES, SPP, REPEATS = 96, 64, 3
@@ -54,7 +54,7 @@ def feature_ladder() -> list[tuple[str, Stack, str]]:
 
 
 def static_cost(stack: Stack, model: str = "auto") -> dict:
-    from ..core.backends.osl import emit_osl
+    from lamella.core.backends.osl import emit_osl
 
     src = emit_osl(stack, model, staged=False)
     body = src[src.index("\nshader "):]
@@ -88,7 +88,7 @@ def compile_ms(source: str) -> float:
 def run(out_dir: Path = BENCH_DIR, repeats: int = REPEATS, progress=print) -> tuple[Path, Path]:
     import bpy  # noqa: F401  (loads _cycles)
 
-    from ..blender.render import render_stack
+    from ..render import render_stack
 
     ladder = feature_ladder()
     rows = []

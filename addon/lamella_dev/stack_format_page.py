@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import math
 
-from .core import stack_format
-from .core.layers import BASE_KINDS, COAT_KINDS
-from .core.layers.schema import ANGLE, FLOAT, RGB, ROUGHNESS
-from .core.stack import MAX_COATS, MAX_JSON, MAX_NAME, Stack
+from lamella.core import stack_format
+from lamella.core.layers import BASE_KINDS, COAT_KINDS
+from lamella.core.layers.schema import ANGLE, FLOAT, RGB, ROUGHNESS
+from lamella.core.stack import MAX_COATS, MAX_JSON, MAX_NAME, Stack
 
 PAGE = "docs/stack-format.md"
 

@@ -13,8 +13,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..core import api, reference, suite
-from ..core.stack import Stack
+from lamella.core import api
+from .. import reference, suite
+from lamella.core.stack import Stack
 
 MODELS = ("yamaguchi2019", "tm6", "endf")
 ANGLES = (0.0, 60.0)

@@ -35,7 +35,8 @@ ENERGY_EPS = 1e-4
 def stack_lobes(case: str) -> list[tuple[str, tuple, float]]:
     """(kind, RGB energy, alpha) of the lobes carrying energy for ``case`` at normal incidence
     (alpha = sqrt(ax ay): the isotropic roughness EEVEE renders)."""
-    from ..core import api, suite
+    from lamella.core import api
+    from .. import suite
 
     lobes = api.lobes(suite.load(case), np.array([[0.0, 0.0, 1.0]]))
     out = []
@@ -78,7 +79,7 @@ def drop(lobes: list, keep: int = KEEP) -> list:
 
 def rel_l1(img: np.ndarray, ref: np.ndarray, mask: np.ndarray) -> float:
     """Relative L1 over the masked pixels, RGB averaged (``metrics.relative_l1``, equal weights)."""
-    from ..core.metrics import relative_l1
+    from ..metrics import relative_l1
 
     return relative_l1(img[..., :3][mask], ref[..., :3][mask], np.ones(int(mask.sum())))
 
@@ -88,7 +89,7 @@ def lobe_sum_material(sphere, lobes):
     """The only material of ``sphere``: one BSDF node per (kind, RGB, alpha) lobe added up: Glossy
     (GGX, Blender roughness sqrt(alpha)) about the normal, Glossy about the view (back-scatter),
     Diffuse."""
-    from ..blender.render import sphere_material
+    from ..render import sphere_material
 
     mat, nt, out = sphere_material(sphere, "closures")
     geo = nt.nodes.new("ShaderNodeNewGeometry")
@@ -115,7 +116,7 @@ def lobe_sum_material(sphere, lobes):
 
 
 def _renderer(engine: str):
-    from ..blender.render import build_scene, render_scene, use_eevee
+    from ..render import build_scene, render_scene, use_eevee
 
     def render(lobes):
         sc, sphere = build_scene("sphere-env", RES, SPP)
@@ -129,7 +130,7 @@ def _renderer(engine: str):
 
 
 def measure() -> dict:
-    from ..core.image_metrics import mean_bias
+    from ..image_metrics import mean_bias
 
     renders = {e: _renderer(e) for e in ("cycles", "eevee")}
     additivity = []

@@ -28,7 +28,8 @@ def _is_file(p: Path) -> bool:
 
 
 def _load_stack(arg: str):
-    from .core import Stack, StackError, suite
+    from lamella.core import Stack, StackError
+    from . import suite
 
     p = Path(arg)
     try:
@@ -49,8 +50,8 @@ def _load_stack(arg: str):
 
 
 def cmd_lobes(a) -> int:
-    from .core import api
-    from .core.models import UnsupportedStack
+    from lamella.core import api
+    from lamella.core.models import UnsupportedStack
 
     stack = _load_stack(a.stack)
     t, p = math.radians(a.wi), math.radians(a.phi)
@@ -86,11 +87,13 @@ def cmd_plot(a) -> int:
 
 
 def cmd_luts(a) -> int:
-    from .core import luts
+    from lamella.core import luts
+
+    from .luts_build import generate_all
 
     t0 = time.time()
     out = Path(a.out) if a.out else luts.DATA_DIR
-    for p in luts.write_tables(luts.generate_all(), out):
+    for p in luts.write_tables(generate_all(), out):
         print(f"wrote {p}")
     print(f"{time.time() - t0:.1f} s")
     return 0
@@ -112,7 +115,7 @@ def cmd_stress(a) -> int:
     from .bench import BENCH_DIR, stress
 
     if not a.no_blender:
-        from .blender import register
+        from lamella.blender import register
 
         register()
     md, ok = stress.run(a.out or BENCH_DIR, quick=a.quick, stacks=a.stacks, blender=not a.no_blender)
@@ -216,9 +219,9 @@ def cmd_export_osl(a) -> int:
     """Write the OSL bundle of a stack: the shader, the look-up tables it reads (``luts/``) and a
     README. An ``-o`` ending in ``.osl`` names the shader file (the bundle goes beside it);
     anything else is the bundle folder."""
-    from .core.backends.osl import VIEW_TARGETS
-    from .core.backends.osl_bundle import bundle_files, write_bundle
-    from .core.models import UnsupportedStack, resolve
+    from lamella.core.backends.osl import VIEW_TARGETS
+    from lamella.core.backends.osl_bundle import bundle_files, write_bundle
+    from lamella.core.models import UnsupportedStack, resolve
 
     if a.target not in VIEW_TARGETS:
         raise _fail(f"export-osl: unknown --target {a.target!r}: expected one of {', '.join(VIEW_TARGETS)}")
@@ -254,7 +257,7 @@ def cmd_apply(a) -> int:
         raise _fail(f"apply: no such .blend file: {blend_in}")
     import bpy
 
-    from .blender import api, register
+    from lamella.blender import api, register
 
     bpy.ops.wm.open_mainfile(filepath=str(blend_in))
     register()
@@ -277,7 +280,7 @@ def cmd_apply(a) -> int:
 
 
 def cmd_render(a) -> int:
-    from .blender.render import render_stack
+    from .render import render_stack
 
     stack = _load_stack(a.stack)
     sun = tuple(float(x) for x in a.sun_dir.split(","))
@@ -311,10 +314,10 @@ def cmd_demo(a) -> int:
     """The main job: render the demo stacks (the accuracy suite and the examples) with their
     generated OSL shaders in the canonical sphere-env scene, as EXR and PNG, plus a contact sheet;
     ``--plots`` adds BRDF slice plots against the stochastic reference."""
-    from .blender.render import render_stack
-    from .core.exr import write_rgba
-    from .core import suite
-    from .core.image_metrics import display_srgb
+    from .render import render_stack
+    from lamella.core.exr import write_rgba
+    from . import suite
+    from .image_metrics import display_srgb
     from .plots import contact_sheet, plot_stack
 
     out = Path(a.out)
@@ -500,7 +503,7 @@ def run() -> None:
     ran Blender (``lamella.blender.exit_process``)."""
     code = main()
     if "bpy" in sys.modules:
-        from .blender import exit_process
+        from lamella.blender import exit_process
 
         exit_process(code)
     sys.exit(code)

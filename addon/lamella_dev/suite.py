@@ -1,7 +1,7 @@
 """The accuracy suite: the paper-figure stacks every model is measured on, the incidence angles,
 and the hemisphere grid of outgoing directions (docs/design.md "Metrics").
 
-The stacks live as JSON in ``lamella/data/stacks`` (``SUITE.json`` lists them with a one-line
+The stacks live as JSON in ``lamella/data/stacks`` (shipped: the "Paper:" presets are some of them) (``SUITE.json`` lists them with a one-line
 description), so they double as examples for ``lamella lobes`` and ``lamella plot``.
 """
 from __future__ import annotations
@@ -12,12 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .stack import Stack
+from lamella.core.hemisphere import wo_grid
+from lamella.core.presets import DATA_DIR
+from lamella.core.stack import Stack
 
-STACK_DIR = Path(__file__).resolve().parent.parent / "data" / "stacks"
+STACK_DIR = DATA_DIR / "stacks"  # shipped: eight of them are the "Paper:" presets
 # Stacks outside the accuracy suite (no stored references), e.g. the 4-coat stress stack the OSL
 # exactness test and the shader-cost table use.
-EXAMPLE_DIR = Path(__file__).resolve().parent.parent / "data" / "examples"
+EXAMPLE_DIR = Path(__file__).resolve().parent / "data" / "examples"
 WI_DEGREES = (0.0, 30.0, 60.0, 75.0)
 # Every incidence a stored reference may hold, in the order that numbers their random seeds (an
 # angle's seed offset is its position here, so adding an angle to stored references leaves the
@@ -51,26 +53,6 @@ def example(name: str) -> Stack:
 def incident(theta_deg: float, phi: float = WI_AZIMUTH) -> np.ndarray:
     t = math.radians(theta_deg)
     return np.array([math.sin(t) * math.cos(phi), math.sin(t) * math.sin(phi), math.cos(t)])
-
-
-def wo_grid(wi: np.ndarray, n_theta: int = 16, n_phi: int = 24) -> tuple[np.ndarray, np.ndarray]:
-    """Outgoing directions and their solid angles, parameterised by the half vector h (a midpoint
-    grid with theta_h = (pi/2) t^2, so cells crowd around the mirror direction where every lobe
-    of a layered stack is centred). wo = reflect(wi, h), d omega_o = 4 (wi . h) d omega_h; cells
-    whose wo falls below the horizon are dropped. The weights integrate any f over the upper
-    hemisphere: sum(f * weight) ~ integral of f d omega_o."""
-    t = (np.arange(n_theta) + 0.5) / n_theta
-    th = 0.5 * math.pi * t * t
-    dth = 0.5 * math.pi * 2.0 * t / n_theta
-    ph = (np.arange(n_phi) + 0.5) / n_phi * 2.0 * math.pi
-    TH, PH = np.meshgrid(th, ph, indexing="ij")
-    h = np.stack([np.sin(TH) * np.cos(PH), np.sin(TH) * np.sin(PH), np.cos(TH)], -1).reshape(-1, 3)
-    d_omega_h = (np.sin(TH) * dth[:, None] * (2.0 * math.pi / n_phi)).ravel()
-    c = h @ wi
-    wo = 2.0 * c[:, None] * h - wi
-    weight = 4.0 * c * d_omega_h
-    keep = (wo[:, 2] > 1e-6) & (c > 0)
-    return wo[keep], weight[keep]
 
 
 def wo_grid_transmitted(wi: np.ndarray, n_theta: int = 16, n_phi: int = 24) -> tuple[np.ndarray, np.ndarray]:

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import api, lobe_kinds, suite
-from ..core.models import UnsupportedStack
+from lamella.core import api, lobe_kinds
+from .. import suite
+from lamella.core.models import UnsupportedStack
 from . import BENCH_DIR
 
 QUADRATURE = (160, 240)  # (n_theta, n_phi) of the half-vector grid

@@ -25,10 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import api, suite
-from ..core.backends.numpy_ops import NumpyOps
-from ..core.metrics import relative_l1
-from ..core.models.ggx import ggx_lobe_cos
+from lamella.core import api
+from .. import suite
+from lamella.core.backends.numpy_ops import NumpyOps
+from ..metrics import relative_l1
+from lamella.core.models.ggx import ggx_lobe_cos
 from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
 from .accuracy import load_reference, reference_noise
 
@@ -148,7 +149,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
           "against the energy-conserving references. *auto*: the model's relative L1. *best α*: the base lobe's "
           "roughness scanned (energy the model's). *floor*: roughness scanned and energy the reference's albedo "
           "minus the surface lobe's, i.e. the error left if energy and roughness were exact "
-          "(`lamella/bench/lobe_floor.py`). Other shapes for the base path, energy the reference's as for the floor: "
+          "(`lamella_dev/bench/lobe_floor.py`). Other shapes for the base path, energy the reference's as for the floor: "
           "*two lobes*: two GGX lobes about the mirror direction (roughnesses and energy split scanned); *tilted*: one "
           "GGX lobe about the mirror of another incidence in the incidence plane (that incidence and α scanned); "
           "*anisotropic*: two roughnesses, along and across the incidence plane. *noise*: the reference's own stderr "

@@ -18,9 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import Stack, api, suite
-from ..core.backends import staging
-from ..core.backends.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
+from lamella.core import Stack, api
+from .. import suite
+from lamella.core.backends import staging
+from lamella.core.backends.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
 from . import BENCH_DIR
 
 ANGLES = (0.0, 30.0, 60.0, 80.0)
@@ -58,7 +59,7 @@ def _draw(rng, live) -> dict:
 
 def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list[dict]:
     """One row per stack class of ``recompile.STACKS`` (those named in ``labels``, default all)."""
-    from ..core.backends.node_graph import emit_plan, live_values
+    from lamella.core.backends.node_graph import emit_plan, live_values
     from .node_cost import textured_sockets
     from .recompile import STACKS, _stack
 

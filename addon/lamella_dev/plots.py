@@ -6,9 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .core import api, reference
-from .core.models import UnsupportedStack, choose_auto
-from .core.stack import Stack
+from lamella.core import api
+from . import reference
+from lamella.core.models import UnsupportedStack, choose_auto
+from lamella.core.stack import Stack
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
@@ -115,7 +116,7 @@ def contact_sheet(images: dict, out: Path, captions: dict | None = None, ncols: 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .core.image_metrics import display_srgb
+    from .image_metrics import display_srgb
 
     names = list(images)
     nrows = max(1, math.ceil(len(names) / ncols))

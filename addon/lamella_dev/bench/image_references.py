@@ -1,5 +1,5 @@
 """Stored image references (Heitz et al. 2016's walk on each interface, or single scattering): every suite case rendered as nested interface spheres
-(``lamella.blender.reference_scene``) in the canonical ``sphere-env`` scene.
+(``lamella_dev.reference_scene``) in the canonical ``sphere-env`` scene.
 
 Each reference is the average of renders ("chunks") with seeds 0, 1, 2, ...; the spread between
 chunks gives the reference's own noise at its full sample count (the noise floor reported beside
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import suite
-from ..core.exr import read_rgba, write_rgba
+from .. import suite
+from lamella.core.exr import read_rgba, write_rgba
 from . import REPO
 
 IMAGE_REFERENCE_DIR = REPO / "tests" / "references" / "images"
@@ -41,7 +41,7 @@ def render_chunks(name: str, seeds, chunk_spp: int, res: int = RES, thickness: f
                   interfaces: str = "single"):
     """The reference renders of suite case ``name``, one per seed: (list of RGBA images, seconds).
     ``interfaces``: as ``reference_scene.build_reference``."""
-    from ..blender.render import render_stack
+    from ..render import render_stack
 
     stack = suite.load(name)
     images, seconds = [], 0.0
@@ -67,7 +67,7 @@ def compute(cases=None, res: int = RES, spp: int = SPP, out_dir: Path = IMAGE_RE
     so references can be improved in steps. The noise figure is the chunk standard deviation (from
     the newest pair of chunks) divided by sqrt(number of chunks). ``interfaces``: the nested
     spheres' rough interfaces (``reference_scene.INTERFACES``), recorded per case."""
-    from ..blender.reference_scene import SHELL_THICKNESS
+    from ..reference_scene import SHELL_THICKNESS
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -116,8 +116,8 @@ def thickness_study(cases=("tinted_varnish", "three_coats"), thicknesses=(0.002,
     """bench/reference_shells.md: does the shell thickness of the nested-sphere reference change
     the image? Each case rendered with shells of each thickness (same seeds), compared with the
     default thickness on 8x8-pixel tiles (per-pixel noise divided by 8) and by mean radiance."""
-    from ..blender.reference_scene import SHELL_THICKNESS
-    from ..core.image_metrics import block_rmse, mean_bias
+    from ..reference_scene import SHELL_THICKNESS
+    from ..image_metrics import block_rmse, mean_bias
     from . import BENCH_DIR
 
     out_dir = Path(out_dir or BENCH_DIR)

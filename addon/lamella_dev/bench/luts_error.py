@@ -7,11 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import luts
-from ..core.backends.numpy_ops import NumpyOps
-from ..core.models.fgd import fgd_conductor, fgd_dielectric, gd, tir_fraction
-from ..core.models.fresnel import fresnel_conductor, fresnel_dielectric
-from ..core.models.rgb import RGB
+from lamella.core import luts
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.models.fgd import fgd_conductor, fgd_dielectric, gd, tir_fraction
+from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
+from lamella.core.models.rgb import RGB
+
+from .. import luts_build
 
 METALS = {"gold": ((0.143, 0.374, 1.442), (3.983, 2.385, 1.603)),
           "aluminium": ((1.657, 0.880, 0.521), (9.224, 6.270, 4.837)),
@@ -21,8 +23,8 @@ METALS = {"gold": ((0.143, 0.374, 1.442), (3.983, 2.385, 1.603)),
 
 def _integrate(mu, alpha, fresnel, n=320):
     """Directional albedo of GGX with the given Fresnel function of wi.h (numpy, float64)."""
-    u1, u2, wt = luts._stratified(n)
-    c, (ox, oy, oz), w = luts._vndf_reflect(np.array([[mu]]), np.array([[max(alpha, 1e-6)]]), u1, u2)
+    u1, u2, wt = luts_build._stratified(n)
+    c, (ox, oy, oz), w = luts_build._vndf_reflect(np.array([[mu]]), np.array([[max(alpha, 1e-6)]]), u1, u2)
     return float((w * wt * fresnel(np.clip(c, 0.0, 1.0), (ox, oy, oz))).mean())
 
 

@@ -1,0 +1,210 @@
+"""The generation of the pre-integrated tables of ``lamella.core.luts`` (numerical integration over
+the GGX visible normals, Heitz 2018's sampler, and the random walk on the microsurface of Heitz et
+al. 2016): ``lamella luts`` writes what ``generate_all`` returns. Development only: the extension
+ships the tables, not their generator."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from lamella.core.luts import (N_ALPHA, N_HAT, N_MS_ALPHA, N_MS_ETA, N_MS_X, N_MU, N_TIR_ETA, N_TIR_U, REFRACT_ETA,
+                               _alpha_nodes, _ms_eta_nodes, _mu_nodes, _tir_eta_nodes, hat, ms_sine)
+
+from .microsurface import sample_vndf, smith_lambda
+
+
+def _stratified(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n x n midpoint rule on the VNDF sample square, with u1 = 1 - (1 - t)^3 so the cells crowd
+    into GGX's heavy tail (u1 -> 1), where total internal reflection and the horizon cut the
+    integrand. Returns (u1, u2, weight); estimates are mean(weight * f)."""
+    g = (np.arange(n) + 0.5) / n
+    t1, u2 = np.meshgrid(g, g, indexing="ij")
+    t1, u2 = t1.ravel(), u2.ravel()
+    return 1.0 - (1.0 - t1) ** 3, u2, 3.0 * (1.0 - t1) ** 2
+
+
+def _vndf_reflect(mu: np.ndarray, alpha: np.ndarray, u1: np.ndarray, u2: np.ndarray):
+    """Isotropic GGX, wi = (sqrt(1 - mu^2), 0, mu): reflections of visible normals sampled with
+    the reference's sampler (Heitz 2018). Returns (c = wi.h, wo, weight) where the albedo integral
+    of F(c) is E[F(c) * weight], weight = G2(wi, wo) / G1(wi) for wo above the horizon
+    (G2 = 1 / (1 + Lambda(wi) + Lambda(wo)), the convention of models/ggx.py). ``mu`` is a
+    scalar array of shape (1, 1), ``alpha`` (A, 1), ``u1``/``u2`` (S,); results are (A, S)."""
+    a = np.broadcast_to(alpha, (alpha.shape[0], u1.size)).ravel()
+    m = float(np.asarray(mu).ravel()[0])
+    wi = np.array([math.sqrt(max(1.0 - m * m, 0.0)), 0.0, m])
+    wis = np.broadcast_to(wi, (a.size, 3))
+    h = sample_vndf(wis, a, a, np.tile(u1, alpha.shape[0]), np.tile(u2, alpha.shape[0]))
+    c = h @ wi
+    wo = 2.0 * c[:, None] * h - wi
+    lam_i = smith_lambda(wis, a, a)
+    lam_o = smith_lambda(wo, a, a)
+    weight = np.where(wo[:, 2] > 0, (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+    shape = (alpha.shape[0], u1.size)
+    return c.reshape(shape), tuple(wo[:, k].reshape(shape) for k in range(3)), weight.reshape(shape)
+
+
+MU_FLOOR = 1e-4  # the mu = 0 nodes are integrated at this cosine (the limit is continuous)
+
+
+def _hat_np(c: np.ndarray, j: int) -> np.ndarray:
+    left, right = hat(c, j)
+    one = np.ones_like(c)
+    return np.clip(np.minimum(left if left is not None else one, right if right is not None else one), 0.0, 1.0)
+
+
+def generate_ggx_albedo(n_samples: int = 160) -> dict[str, np.ndarray]:
+    mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
+    alpha = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)[:, None]
+    u1, u2, wt = _stratified(n_samples)
+    A = np.zeros((N_MU, N_ALPHA))
+    H = np.zeros((N_MU, N_ALPHA, N_HAT))
+    for i, m in enumerate(mu):
+        c, _, w = _vndf_reflect(np.array([[m]]), alpha, u1, u2)
+        w = w * wt
+        c = np.clip(c, 0.0, 1.0)
+        A[i] = w.mean(-1)
+        for j in range(N_HAT):
+            H[i, :, j] = (w * _hat_np(c, j)).mean(-1) - _hat_np(np.array(m), j)
+    A[:, 0] = 1.0  # alpha = 0: a mirror, exactly
+    H[:, 0, :] = 0.0
+    return {"ggx_albedo": A, "fresnel_hat_delta": H}
+
+
+def generate_tir(n_samples: int = 160) -> np.ndarray:
+    u = np.linspace(0.0, 1.0, N_TIR_U)
+    alpha = _alpha_nodes(N_ALPHA)
+    etas = _tir_eta_nodes(N_TIR_ETA)
+    us1, us2, wt = _stratified(n_samples)
+    out = np.ones((N_TIR_U, N_ALPHA, N_TIR_ETA))
+    for k, eta in enumerate(etas):
+        sin_t = np.minimum(u * eta, 1.0)
+        mu = np.maximum(np.sqrt(1.0 - sin_t * sin_t), MU_FLOOR)
+        for i, m in enumerate(mu):
+            _, (ox, oy, oz), w = _vndf_reflect(np.array([[m]]), np.maximum(alpha, 1e-6)[:, None], us1, us2)
+            w = w * wt
+            inside = (ox * ox + oy * oy) < eta * eta
+            tot = w.sum(-1)
+            out[i, :, k] = np.where(tot > 0, (w * inside).sum(-1) / np.maximum(tot, 1e-30), 1.0)
+    out[:, 0, :] = 1.0  # a delta lobe along a refracted-in direction always escapes
+    out[:, :, -1] = 1.0  # eta = 1: every upper-hemisphere direction escapes (exactly, not 1 - rounding)
+    return out
+
+
+def generate_refract_albedo(n_samples: int = 160, eta: float = REFRACT_ETA) -> np.ndarray:
+    """What Cycles' refracting GGX closure (isotropic, no Fresnel) transmits at weight 1: its
+    sampling weight E[(1 + Lambda_i) / (1 + Lambda_i + Lambda_o)] over visible normals, the
+    refracted direction wo = refract(wi, h, 1 / eta) kept when it lies below the closure's normal
+    (Cycles' ``bsdf_microfacet_sample``; Walter et al. 2007 Eq. 40 for the refraction)."""
+    mu = np.maximum(_mu_nodes(N_MU), MU_FLOOR)
+    alphas = np.maximum(_alpha_nodes(N_ALPHA), 1e-6)
+    u1, u2, wt = _stratified(n_samples)
+    out = np.ones((N_MU, N_ALPHA))
+    for i, m in enumerate(mu):
+        wi = np.array([math.sqrt(max(1.0 - m * m, 0.0)), 0.0, m])
+        for j, a in enumerate(alphas):
+            wis = np.broadcast_to(wi, (u1.size, 3))
+            h = sample_vndf(wis, np.full(u1.size, a), np.full(u1.size, a), u1, u2)
+            c = h @ wi
+            e2 = eta * eta - (1.0 - c * c)
+            wo = (c / eta - np.sqrt(np.maximum(e2, 0.0)) / eta)[:, None] * h - wi / eta
+            lam_i = smith_lambda(wis, a, a)
+            lam_o = smith_lambda(wo, a, a)
+            w = np.where((e2 > 0) & (wo[:, 2] < 0), (1.0 + lam_i) / (1.0 + lam_i + lam_o), 0.0)
+            out[i, j] = np.mean(w * wt)
+    out[:, 0] = 1.0  # alpha = 0: a delta straight through
+    return out
+
+
+MS_WALKS, MS_SEED = 1 << 16, 7  # walks per cell of dielectric_rough_reflect, and their random numbers
+
+
+def _over_ms_axes(cell, walks: int, seed: int) -> np.ndarray:
+    """``cell(sine, alpha, eta, walks, seed)`` at every node of the (direction, alpha, eta) axes of
+    the multiple-scattering tables."""
+    out = np.zeros((N_MS_X, N_MS_ALPHA, N_MS_ETA))
+    for i, c in enumerate(np.linspace(0.0, 1.0, N_MS_X)):
+        for j, a in enumerate(_alpha_nodes(N_MS_ALPHA)):
+            for k, eta in enumerate(_ms_eta_nodes(N_MS_ETA)):
+                out[i, j, k] = cell(ms_sine(float(c), float(eta)), float(a), float(eta), walks, seed)
+    return out
+
+
+def dielectric_rough_reflect_cell(s: float, alpha: float, eta: float, walks: int = MS_WALKS,
+                                  seed: int = MS_SEED) -> float:
+    """One value of ``dielectric_rough_reflect`` at the direction of sine ``s``: the share of
+    ``walks`` random walks on the microsurface (Heitz et al. 2016) that leave on the side they came
+    from; at alpha = 0 the smooth interface's Fresnel factor."""
+    from .microsurface import _fresnel_dielectric, walk
+
+    s = min(s, 1.0)
+    mu = max(math.sqrt(max(1.0 - s * s, 0.0)), MU_FLOOR)
+    if alpha <= 0.0 or abs(eta - 1.0) < 1e-12:
+        return float(_fresnel_dielectric(np.array([mu]), np.array([eta]))[0])
+    wi = np.broadcast_to(np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu]), (walks, 3))
+    o, _, left = walk(wi, alpha, alpha, np.random.default_rng(seed), eta=np.full(walks, eta))
+    return float(np.mean(left & (o[:, 2] > 0)))
+
+
+def generate_dielectric_rough_reflect(walks: int = MS_WALKS, seed: int = MS_SEED) -> np.ndarray:
+    """The directional reflectance of an energy-conserving rough dielectric interface (Heitz,
+    Hanika, d'Eon and Dachsbacher 2016, Sections 5-6: the random walk on the microsurface,
+    reflecting and refracting at every facet) over (direction, alpha, eta), light
+    arriving from the side of index n1 onto eta = n2 / n1 (``dielectric_rough_reflect_cell``).
+    One minus it is the interface's transmittance, as the walk conserves energy. The models use it
+    from the denser side, where single-scattering FGD falls short: the light one facet sends on
+    meets others past their own critical angle (alpha 0.3, eta 1 / 1.5, 37 degrees: 0.13 more than
+    single scattering), and FGD's Fresnel quadrature rounds the kink of the Fresnel curve at the
+    critical angle off differently for every eta (errors up to 0.15 there). The direction axis puts
+    that critical angle, and grazing, on nodes for every eta (``ms_x_to_coord``). The table holds the
+    reflectance itself, which roughness makes smooth across the critical angle; the smooth
+    interface's Fresnel factor jumps there, so the models hand over to it below alpha 0.02
+    (``fgd.fgd_dielectric``). Every cell uses the same random numbers, so the table is smooth in its
+    parameters. About 7 minutes."""
+    return _over_ms_axes(dielectric_rough_reflect_cell, walks, seed)
+
+
+def dielectric_trapped_escape_cell(s: float, alpha: float, eta: float, walks: int = MS_WALKS,
+                                   seed: int = MS_SEED) -> float:
+    """One value of ``dielectric_trapped_escape`` at the direction of sine ``s``: of the walks of
+    ``dielectric_rough_reflect_cell`` (the same random numbers) that leave on the side they came
+    from, sent back by a mirror parallel to the interface, the share that crosses the interface on
+    their second arrival (a second walk). At alpha = 0 the reflected light comes back along the
+    direction it came, and the value is the smooth interface's transmittance."""
+    from .microsurface import _fresnel_dielectric, walk
+
+    s = min(s, 1.0)
+    mu = max(math.sqrt(max(1.0 - s * s, 0.0)), MU_FLOOR)
+    smooth = 1.0 - float(_fresnel_dielectric(np.array([mu]), np.array([eta]))[0])
+    if alpha <= 0.0 or abs(eta - 1.0) < 1e-12:
+        return smooth
+    wi = np.broadcast_to(np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu]), (walks, 3))
+    o, _, left = walk(wi, alpha, alpha, np.random.default_rng(seed), eta=np.full(walks, eta))
+    back = left & (o[:, 2] > 0)
+    if not back.any():
+        return smooth
+    # the mirror sends a reflected direction o back as (o_x, o_y, -o_z): arriving along -i, i = (-o_x, -o_y, o_z)
+    again = np.stack([-o[back, 0], -o[back, 1], o[back, 2]], 1)
+    o2, _, left2 = walk(again, alpha, alpha, np.random.default_rng(seed + 1), eta=np.full(len(again), eta))
+    return float(np.mean(left2 & (o2[:, 2] < 0)))
+
+
+def generate_dielectric_trapped_escape(walks: int = MS_WALKS, seed: int = MS_SEED) -> np.ndarray:
+    """How easily the light a rough dielectric interface reflects back comes through it on its next
+    arrival, over the axes of ``dielectric_rough_reflect`` (``dielectric_trapped_escape_cell``; the
+    energy-conserving interface of Heitz, Hanika, d'Eon and Dachsbacher 2016). From the denser
+    side most of what a rough interface reflects has been turned past the critical angle by
+    facets reflecting totally, and it stays trapped: for alpha 0.1, eta 1 / 1.5 and light going up
+    at 35 degrees (60 degrees outside), 0.78 of the light crosses on its first arrival but only 0.26
+    of what came back. The adding equations that take every round trip as the first overestimate
+    what a coated conductor returns at oblique views (``models.adding_doubling``). About 9 minutes."""
+    return _over_ms_axes(dielectric_trapped_escape_cell, walks, seed)
+
+
+def generate_all() -> dict[str, np.ndarray]:
+    tables = generate_ggx_albedo()
+    tables["tir"] = generate_tir()
+    tables["ggx_refract_albedo"] = generate_refract_albedo()
+    tables["dielectric_rough_reflect"] = generate_dielectric_rough_reflect()
+    tables["dielectric_trapped_escape"] = generate_dielectric_trapped_escape()
+    return tables
