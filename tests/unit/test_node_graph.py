@@ -18,7 +18,7 @@ from lamella.core.backends import node_graph, staging
 from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.backends.staging import StagedOps
-from lamella.core.lobe_kinds import blender_anisotropy
+from lamella.core.backends.bsdf_nodes import blender_anisotropy
 
 CASES = suite.names()
 

@@ -1,8 +1,9 @@
 """The lobe kinds: one table that says, for every kind of lobe a model emits, how it is evaluated,
-how its weight is normalised, which side of the surface it lights and which Cycles closure
-renders it, in OSL and as a Blender BSDF node (docs/design.md "Where a new kind goes").
-``lamella.core.api.evaluate`` (numpy), the OSL emitter and the node-graph emitter all read this
-table and nothing else about lobes.
+how its weight is normalised and which side of the surface it lights: the physics of the closure
+that renders it (docs/design.md "Where a new kind goes"). ``lamella.core.api.evaluate`` (numpy)
+reads this table and nothing else about lobes; each backend keeps its own table of how a kind is
+printed or built, keyed by the kind's name: ``backends/osl_closures.py`` (the Cycles OSL closure
+call) and ``backends/bsdf_nodes.py`` (the Blender BSDF node, for Cycles without OSL and EEVEE).
 
 A lobe of weight ``e`` (RGB energy) contributes ``e * scale(wi) * closure_cos(wi, wo)`` to
 f(wi, wo) |wo.z|, where ``closure_cos`` is exactly what the renderer's closure evaluates (f cos
@@ -26,38 +27,20 @@ GD_FLOOR = 1e-6  # GD is >= 0.2 for every alpha <= 1 at wi.z >= 0; the floor onl
 
 
 @dataclass(frozen=True)
-class BsdfNode:
-    """The Blender BSDF node that renders a lobe (the node-graph backend): its type and
-    properties, its float sockets as backend values, and its vector sockets as local-frame
-    triples (x along the shading tangent, y the bitangent, z the normal) of backend values, or
-    None to leave the socket unlinked. The ``Color`` socket takes the lobe's weight."""
-
-    bl_idname: str
-    props: dict
-    floats: dict
-    vectors: dict
-
-
-@dataclass(frozen=True)
 class LobeKind:
     """A closure is a function of its arguments, the named values ``args(ops, lobe, wi)`` turns a
     lobe into (roughness, axes, normal) and a backend prints or wires:
-    ``cos_of_args(ops, a, wi, wo)``: f cos of the closure of weight 1; ``scale_of_args(ops, a,
-    wi)``: the normaliser that makes the closure carry its lobe's energy; ``side``:
-    ``"reflected"`` or ``"transmitted"``; ``osl(a)``: the Cycles OSL closure call, given the
-    printed expressions ``a`` of the arguments; ``bsdf(ops, a, wi)``: the Blender BSDF node
-    (``BsdfNode``) that makes the same closure in Cycles without OSL, and in EEVEE what EEVEE
-    makes of that node; ``description``: one line for docs and tables; ``rough``: the lobe is a
-    microfacet lobe, a delta at zero roughness. ``closure_cos`` and ``scale`` are the same of a
-    lobe."""
+    ``cos_of_args(ops, a, wi, wo)``: f cos of the closure of weight 1 (exactly what the renderer's
+    closure evaluates); ``scale_of_args(ops, a, wi)``: the normaliser that makes the closure carry
+    its lobe's energy; ``side``: ``"reflected"`` or ``"transmitted"``; ``description``: one line
+    for docs and tables; ``rough``: the lobe is a microfacet lobe, a delta at zero roughness.
+    ``closure_cos`` and ``scale`` are the same of a lobe."""
 
     name: str
     side: str
     cos_of_args: Callable
     scale_of_args: Callable
     args: Callable
-    osl: Callable
-    bsdf: Callable
     description: str
     rough: bool = True
 
@@ -79,18 +62,8 @@ def _gd_scale(ops, a, wi):
     return 1.0 / ops.max(gd(ops, wi[2], rms_alpha(ops, a["ax"], a["ay"])), GD_FLOOR)
 
 
-def _osl_tangent(c: str, s: str) -> str:
-    return "Tn" if (c, s) == ("1.0", "0.0") else f"normalize({c} * Tn + {s} * Bn)"
-
-
 def _ggx_args(ops, lobe, wi):
     return {"ax": lobe.alpha_x, "ay": lobe.alpha_y, "cos": ops.cos(lobe.rotation), "sin": ops.sin(lobe.rotation)}
-
-
-def _osl_ggx_reflection(a: dict) -> str:
-    """Cycles' single-scattering GGX reflection without Fresnel (refract = 0) on the lobe's axes:
-    the shading tangent turned by the lobe rotation about the normal."""
-    return f'microfacet("ggx", Normal, {_osl_tangent(a["cos"], a["sin"])}, {a["ax"]}, {a["ay"]}, 1.0, 0)'
 
 
 def _backscatter_closure_cos(ops, a, wi, wo):
@@ -110,11 +83,6 @@ def _backscatter_scale(ops, a, wi):
 
 def _backscatter_args(ops, lobe, wi):
     return {"alpha": lobe.alpha_x}
-
-
-def _osl_backscatter(a: dict) -> str:
-    """Cycles' GGX reflection about the view direction V (Cycles' I points toward the viewer)."""
-    return f'microfacet("ggx", V, {a["alpha"]}, 1.0, 0)'
 
 
 def _refracted_mirror(ops, lobe, wi):
@@ -204,55 +172,6 @@ def _transmission_args(ops, lobe, wi):
     return {"alpha": _transmission_alpha(ops, lobe), "nx": n[0], "ny": n[1], "nz": n[2]}
 
 
-def _osl_transmission(a: dict) -> str:
-    """Cycles' refracting GGX closure (refract = 1) at index REFRACT_ETA about the closure normal
-    given in the local frame."""
-    n = f'normalize({a["nx"]} * Tn + {a["ny"]} * Bn + {a["nz"]} * Normal)'
-    return f'microfacet("ggx", {n}, {a["alpha"]}, {REFRACT_ETA!r}, 1)'
-
-
-def blender_anisotropy(ops, ax, ay):
-    """Blender's (Roughness, Anisotropy) of a GGX lobe with roughness ax along its tangent and ay
-    across it: the Glossy BSDF sets alpha = r^2 and, for anisotropy a >= 0, alpha_x = alpha (1 - a),
-    alpha_y = alpha / (1 - a), for a < 0 alpha_x = alpha / (1 + a), alpha_y = alpha (1 + a)
-    (Cycles 5.0, ``svm_node_closure_bsdf``). So alpha = sqrt(ax ay) and |a| = 1 - sqrt(min / max);
-    Cycles clamps |a| to 0.99, an axis ratio of 10^4. One traced value for both axes (an
-    isotropic lobe) gives r = sqrt(alpha) and no anisotropy, without the nodes that would find it."""
-    if ax is ay and not isinstance(ax, (int, float)) and getattr(ops, "name", "") == "trace":
-        return ops.sqrt(ax), 0.0
-    q = ops.sqrt((ops.min(ax, ay) + 1e-12) / (ops.max(ax, ay) + 1e-12))  # 1 for isotropic, even at 0
-    return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, 1.0 - q, q - 1.0)
-
-
-def _bsdf_ggx_reflection(ops, a, wi):
-    """Glossy BSDF (GGX) on the lobe's axes. EEVEE ignores the anisotropy and renders the
-    Roughness socket alone, alpha = sqrt(ax ay): of the isotropic stand-ins measured (arithmetic,
-    geometric and RMS mean, the larger axis, the roughness projected on the view's azimuth) the
-    geometric mean is the closest to the anisotropic lobes (``bench/eevee_anisotropy.md``), so one
-    node group serves Cycles and EEVEE."""
-    r, aniso = blender_anisotropy(ops, a["ax"], a["ay"])
-    return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"}, {"Roughness": r, "Anisotropy": aniso},
-                    {"Normal": (0.0, 0.0, 1.0), "Tangent": (a["cos"], a["sin"], 0.0)})
-
-
-def _bsdf_backscatter(ops, a, wi):
-    """Glossy BSDF (GGX, isotropic) about the view direction."""
-    return BsdfNode("ShaderNodeBsdfAnisotropic", {"distribution": "GGX"},
-                    {"Roughness": ops.sqrt(a["alpha"]), "Anisotropy": 0.0},
-                    {"Normal": tuple(wi), "Tangent": None})
-
-
-def _bsdf_transmission(ops, a, wi):
-    """Refraction BSDF (GGX) at index REFRACT_ETA about the closure normal."""
-    return BsdfNode("ShaderNodeBsdfRefraction", {"distribution": "GGX"},
-                    {"Roughness": ops.sqrt(a["alpha"]), "IOR": REFRACT_ETA},
-                    {"Normal": (a["nx"], a["ny"], a["nz"])})
-
-
-def _bsdf_diffuse(ops, a, wi):
-    return BsdfNode("ShaderNodeBsdfDiffuse", {}, {"Roughness": 0.0}, {"Normal": (0.0, 0.0, 1.0)})
-
-
 def _lambert_closure_cos(ops, a, wi, wo):
     return ops.select(wo[2] > 0.0, wo[2] * (1.0 / math.pi), 0.0)
 
@@ -265,20 +184,15 @@ def _no_args(ops, lobe, wi):
     return {}
 
 
-def _osl_diffuse(a: dict) -> str:
-    return "diffuse(Normal)"
-
-
 KINDS: dict[str, LobeKind] = {k.name: k for k in (
-    LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _ggx_args, _osl_ggx_reflection,
-             _bsdf_ggx_reflection, "GGX reflection about the mirror direction, GD-normalised"),
-    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args, _osl_diffuse, _bsdf_diffuse,
+    LobeKind("reflection", "reflected", _ggx_closure_cos, _gd_scale, _ggx_args,
+             "GGX reflection about the mirror direction, GD-normalised"),
+    LobeKind("diffuse", "reflected", _lambert_closure_cos, _unit_scale, _no_args,
              "Lambertian reflection (the light a diffuse base sends back up)", rough=False),
     LobeKind("backscatter", "reflected", _backscatter_closure_cos, _backscatter_scale, _backscatter_args,
-             _osl_backscatter, _bsdf_backscatter,
              "GGX reflection about the incident direction (light back-scattered by a medium)"),
     LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale, _transmission_args,
-             _osl_transmission, _bsdf_transmission, "GGX refraction lobe about the transmitted direction, below a dielectric base"),
+             "GGX refraction lobe about the transmitted direction, below a dielectric base"),
 )}
 
 

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import luts
+from .bsdf_nodes import BSDF_NODES
 from .closures import trace_closures
 from .trace import Expr, Tracer
 
@@ -485,7 +486,7 @@ def _plan(stack, model: str, st, image: str) -> Plan:
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         t, closures, wi, frame, table = traced.tracer, traced.closures, traced.wi, "shading", None
-    specs = [(c, c.weight, c.kind.bsdf(t, c.args, wi)) for c in closures]
+    specs = [(c, c.weight, BSDF_NODES[c.kind.name](t, c.args, wi)) for c in closures]
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]

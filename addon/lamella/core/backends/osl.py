@@ -25,6 +25,7 @@ from pathlib import Path
 
 from .. import luts
 from .closures import trace_closures
+from .osl_closures import CLOSURES
 from .sockets import by_param, sockets
 from .trace import Expr, Tracer
 
@@ -388,7 +389,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     called = []
     for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
-        closure = c.kind.osl({name: p.ref(x) for name, x in c.args.items()})
+        closure = CLOSURES[c.kind.name]({name: p.ref(x) for name, x in c.args.items()})
         called.append(ShaderClosure(c.label, c.kind.name, closure.split("(", 1)[0].strip()))
         body += [
             f"    // {c.label}",
