@@ -23,10 +23,12 @@ def test_zip_holds_the_runtime_and_nothing_of_development(built_zip):
     names = set(zipfile.ZipFile(built_zip).namelist())
     for needed in ("blender_manifest.toml", "__init__.py", "LICENSE", "addon/lamella/data/osl/lamella_luts.h",
                    "addon/lamella/data/luts/tables.npz", "addon/lamella/data/metals.json",
-                   "addon/lamella/data/presets/INDEX.json", "addon/lamella/blender/ui.py"):
+                   "addon/lamella/data/presets/INDEX.json", "addon/lamella/blender/ui.py",
+                   "addon/lamella/data/assets/lamella_presets.blend"):
         assert needed in names, needed
     for name in names:
-        assert not name.startswith(("tests/", "bench/", "tools/", "docs/", "osl/", ".venv", "addon/lamella_dev/")), name
+        assert not name.startswith(("tests/", "bench/", "tools/", "docs/", "osl/", "build/", "dist/", ".venv",
+                                    "addon/lamella_dev/")), name
         assert "__pycache__" not in name and not name.endswith(".pyc"), name
     assert "addon/lamella/core/reference.py" not in names  # the contract's alias of lamella_dev.reference
     assert built_zip.stat().st_size < 2_000_000

@@ -56,9 +56,16 @@ def test_the_check_sees_an_absolute_import(tmp_path):
 def installed(tmp_path_factory):
     """The project built as a wheel and installed into a folder of its own (no editable link)."""
     pytest.importorskip("setuptools")
+    import shutil
+
     tmp = tmp_path_factory.mktemp("wheel")
+    # built from a copy: setuptools writes build/ and an egg-info beside the sources it builds
+    src = tmp / "src"
+    shutil.copytree(ROOT / "addon", src / "addon", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
+        shutil.copy(ROOT / name, src / name)
     r = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                        "-w", str(tmp / "dist"), str(ROOT)], capture_output=True, text=True)
+                        "-w", str(tmp / "dist"), str(src)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-3000:]
     wheel = next((tmp / "dist").glob("lamella-*.whl"))
     site = tmp / "site"

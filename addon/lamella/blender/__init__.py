@@ -1,5 +1,5 @@
-"""Everything that needs bpy: the extension's properties, panel, operators and node wiring, and
-the canonical render scenes. ``register()`` / ``unregister()`` install the extension's classes
+"""Everything that needs bpy: the extension's properties, panel, operators, node wiring, handlers
+and its asset library. ``register()`` / ``unregister()`` install the extension's classes
 and handlers (the top-level extension module calls them)."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import importlib
 import os
 import sys
 
-_MODULES = ("properties", "recompile", "operators", "ui")
+_MODULES = ("properties", "recompile", "operators", "ui", "asset_library")
 _registered = False
 _exit_hook = False
 

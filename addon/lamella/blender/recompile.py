@@ -108,6 +108,14 @@ def schedule(mat) -> None:
     _queue(mat, True)
 
 
+def never_compiled(mat) -> bool:
+    """A Lamella material that holds a stack but no shader yet (an asset appended from the
+    preset library, a material made by a script that set its properties): compiled when it first
+    appears in a scene or before a render."""
+    s = mat.lamella
+    return mat.library is None and s.enabled and not s.compiled_json and s.status == "NONE"
+
+
 def schedule_inspector(mat) -> None:
     """Refresh ``mat``'s lobe inspector soon (debounced)."""
     _queue(mat, False)
@@ -367,7 +375,9 @@ def _before_render(scene, *_args):
     from .material_nodes import group_needed
 
     for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
-        if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json:
+        if never_compiled(mat):
+            _pending[mat.name_full] = True
+        elif mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json:
             if _guarded(mat, "reading the links", lambda m=mat: links_changed(m), False):
                 _pending[mat.name_full] = True
             elif mat.name_full not in _pending and _guarded(mat, "checking the nodes", lambda m=mat: repair_needed(m)):
@@ -382,10 +392,18 @@ def _before_render(scene, *_args):
 
 
 @persistent
-def _after_depsgraph(scene, *_args):
+def _after_depsgraph(scene, depsgraph=None, *_args):
     """Rewire when the scene's engine, OSL switch or device changes, building the node groups
-    that wait if the scene now renders them (cheap otherwise: one comparison)."""
+    that wait if the scene now renders them (cheap otherwise: one comparison); compile a Lamella
+    material that arrives without a shader (``never_compiled``: looked for among the updated data
+    only)."""
     from .material_nodes import group_needed, osl_usable
+
+    if depsgraph is not None:
+        for update in depsgraph.updates:
+            mat = update.id.original
+            if isinstance(mat, bpy.types.Material) and never_compiled(mat):
+                schedule(mat)
 
     state = (scene.render.engine, osl_usable(scene))
     if _osl_state.get(scene.name) != state:
