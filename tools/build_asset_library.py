@@ -3,8 +3,10 @@ presets stay one source: one asset material per built-in preset, holding its sta
 it first appears in a scene), the preset's description, a catalog (the artistic presets, the paper
 figures) and a preview rendered with the material's own shader on the canonical sphere.
 
-Run with the project's Python (bpy installed): ``.venv/bin/python tools/build_asset_library.py``.
-``tests/blender/test_asset_library.py`` fails when the library no longer matches the presets.
+Run it with the oldest Blender the extension supports, so every supported Blender opens the file
+(a .blend saved by 5.x is "not a blend file" to 4.2): after ``make test-blender-versions``,
+``.venv-bpy-4.2.23/bin/python tools/build_asset_library.py``. ``tests/blender/test_asset_library.py``
+fails when the library no longer matches the presets or was saved by a newer Blender.
 """
 from __future__ import annotations
 
@@ -53,6 +55,10 @@ def build(out_dir: Path) -> Path:
     assets = []
     for preset in presets.builtin():
         mat = bpy.data.materials.new(preset.label)
+        # an empty node tree: a material saved without one (4.2's default) is given a Principled
+        # tree by newer Blenders' versioning when they open it, whose output then renders instead
+        mat.use_nodes = True
+        mat.node_tree.nodes.clear()
         with recompile.suspended():  # the stack only: compiled where it is used
             write_stack(mat.lamella, preset.load())
             mat.lamella.enabled = True

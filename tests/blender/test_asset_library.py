@@ -52,6 +52,21 @@ def test_the_library_holds_every_preset_as_an_asset_of_its_stack(addon):
         assert api.read_stack(m) == _stored(addon, p.load()), p.id
 
 
+def test_the_library_opens_in_the_oldest_blender_the_extension_supports():
+    """Saved by Blender 4.2 (blender_manifest.toml's minimum): a .blend written by 5.x does not
+    open in 4.2 ("not a blend file"). The file is zstd-compressed; its header names the version."""
+    import io
+    import tomllib
+
+    import zstandard
+
+    raw = asset_library.LIBRARY_FILE.read_bytes()
+    head = raw[:12] if raw.startswith(b"BLENDER") else zstandard.ZstdDecompressor().stream_reader(io.BytesIO(raw)).read(12)
+    minimum = tomllib.loads((asset_library.LIBRARY_DIR.parents[3] / "blender_manifest.toml").read_text())
+    major, minor = (int(x) for x in minimum["blender_version_min"].split(".")[:2])
+    assert head[:7] == b"BLENDER" and head[9:12] == f"{major}{minor:02d}".encode(), head
+
+
 def test_the_extension_lists_the_library_while_it_is_enabled(addon):
     def listed():
         return [lib for lib in addon.context.preferences.filepaths.asset_libraries
