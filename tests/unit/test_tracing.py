@@ -56,6 +56,16 @@ def random_dirs(n, seed):
     return w / np.linalg.norm(w, axis=1, keepdims=True)
 
 
+def assert_graph_is_numpy(t, outputs, d, model, wi, wo):
+    """The traced graph evaluated on numpy at its parameters' defaults equals ``lc.evaluate`` bit
+    for bit at the directions ``wi``, ``wo`` (N, 3)."""
+    values = dict(t.defaults)
+    values.update({f"wi_{c}": wi[:, k] for k, c in enumerate("xyz")})
+    values.update({f"wo_{c}": wo[:, k] for k, c in enumerate("xyz")})
+    got = np.stack(t.evaluate(outputs, NumpyOps(), values), -1)
+    np.testing.assert_array_equal(got, lc.evaluate(d, wi, wo, model))
+
+
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_traces_to_a_finite_graph_equal_to_numpy(kind, model):
@@ -76,12 +86,7 @@ def test_traces_to_a_finite_graph_equal_to_numpy(kind, model):
     assert {p for p in t.params if p.startswith("base_") and "alpha" in p or p == "base_rotation"} == expected
     absorbing = {i for i, c in enumerate(d["layers"]) if c["thickness"] > 0 and max(c["sigma_a"]) > 0}
     assert {int(p[4]) for p in t.params if p.endswith("_thickness")} == absorbing
-    wi_np, wo_np = random_dirs(64, 1), random_dirs(64, 2)
-    values = dict(t.defaults)
-    values.update({f"wi_{c}": wi_np[:, k] for k, c in enumerate("xyz")})
-    values.update({f"wo_{c}": wo_np[:, k] for k, c in enumerate("xyz")})
-    got = np.stack(t.evaluate(outputs, NumpyOps(), values), -1)
-    np.testing.assert_array_equal(got, lc.evaluate(d, wi_np, wo_np, model))
+    assert_graph_is_numpy(t, outputs, d, model, random_dirs(64, 1), random_dirs(64, 2))
 
 
 OTHER_BASES = {
@@ -101,12 +106,7 @@ def test_every_registered_model_traces_to_numpy_bit_for_bit(kind, model):
         t, wi, wo, lobes, outputs = trace(d, model)
     except lc.UnsupportedStack as e:
         pytest.skip(str(e))
-    wi_np, wo_np = random_dirs(32, 3), random_dirs(32, 4)
-    values = dict(t.defaults)
-    values.update({f"wi_{c}": wi_np[:, k] for k, c in enumerate("xyz")})
-    values.update({f"wo_{c}": wo_np[:, k] for k, c in enumerate("xyz")})
-    got = np.stack(t.evaluate(outputs, NumpyOps(), values), -1)
-    np.testing.assert_array_equal(got, lc.evaluate(d, wi_np, wo_np, model))
+    assert_graph_is_numpy(t, outputs, d, model, random_dirs(32, 3), random_dirs(32, 4))
 
 
 def test_unused_features_cost_nothing():
