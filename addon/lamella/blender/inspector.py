@@ -111,7 +111,7 @@ def update(mat) -> None:
         item = s.lobes.add()
         item.kind, item.weight = r["kind"], r["weight"]
         item.roughness, item.anisotropy, item.rotation = r["roughness"], r["anisotropy"], r["rotation"]
-    transmitted = stack.base.type == "dielectric"
+    transmitted = stack.base.kind.transmits
     _, values = slice_values(stack, model, theta, transmitted)
     img = _image(mat)
     img.pixels.foreach_set(draw_slice(values, theta, transmitted).ravel())

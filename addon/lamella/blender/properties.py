@@ -26,9 +26,9 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from ..core import metals
 from ..core.api import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from . import kind_hooks
 
 def _on_edit(self, context):
     from . import recompile
@@ -83,102 +83,27 @@ def field_properties(f, update=_on_edit) -> dict:
     raise TypeError(f"no Blender property for field type {f.type!r}")
 
 
-# ---------------------------------------------------------------- conductor colour modes
-METAL_MODES = (
-    ("MEASURED", "Measured", "A measured metal: published complex index of refraction"),
-    ("ARTIST", "Artist", "Reflectivity and edge tint colours (Gulbrandsen 2014), stored as eta/k"),
-    ("CUSTOM", "Custom", "The complex index of refraction eta + i k itself"),
-)
-_METAL_ITEMS: list = []
-_syncing = False
-
-
-def metal_items(self=None, context=None):
-    if not _METAL_ITEMS:
-        _METAL_ITEMS.extend((key, m["label"], f"{m['label']}: {metals.citation(m)}")
-                            for key, m in metals.measured().items())
-    return _METAL_ITEMS
-
-
-def _apply_metal(self, context):
-    if self.mode == "MEASURED":
-        m = metals.measured()[self.metal]
-        _write_conductor(self, m["eta"], m["k"])
-
-
-def _apply_artist(self, context):
-    if self.mode == "ARTIST" and not _syncing:
-        eta, k = metals.artistic_to_complex(self.reflectivity, self.edge_tint)
-        _write_conductor(self, eta, k)
-
-
-def _on_mode(self, context):
-    """Entering a mode shows the current metal in its terms: the artist colours are derived from
-    eta/k; the measured mode applies the picked metal."""
-    global _syncing
-    if self.mode == "ARTIST":
-        r, g = metals.complex_to_artistic(self.eta, self.k)
-        _syncing = True
-        try:
-            self.reflectivity, self.edge_tint = r, g
-        finally:
-            _syncing = False
-        _apply_artist(self, context)
-    elif self.mode == "MEASURED":
-        _apply_metal(self, context)
-
-
-def _write_conductor(pg, eta, k):
-    pg.eta = tuple(eta)
-    pg.k = tuple(k)
-
-
-KIND_EXTRAS = {
-    "conductor": lambda: {
-        "mode": EnumProperty(name="Metal", description="How the metal's complex index is chosen",
-                             items=METAL_MODES, default="CUSTOM", update=_on_mode),
-        "metal": EnumProperty(name="Measured Metal", description="Published measurement to use",
-                              items=metal_items(), update=_apply_metal),
-        "reflectivity": FloatVectorProperty(name="Reflectivity", description="Colour at normal incidence",
-                                            size=3, subtype="COLOR", min=0.0, max=1.0,
-                                            default=(0.944, 0.776, 0.373), update=_apply_artist),
-        "edge_tint": FloatVectorProperty(name="Edge Tint", description="Colour toward grazing angles",
-                                         size=3, subtype="COLOR", min=0.0, max=1.0,
-                                         default=(0.998, 0.981, 0.751), update=_apply_artist),
-    },
-}
-
-
 def _kind_group(kind) -> type:
+    """The PropertyGroup of a layer kind: its schema fields and its Blender hooks' properties."""
     ann = {}
     for f in kind.fields:
         ann.update(field_properties(f))
-    if kind.type in KIND_EXTRAS:
-        ann.update(KIND_EXTRAS[kind.type]())
+    extra = kind_hooks.hooks(kind.type).properties
+    if extra is not None:
+        ann.update(extra())
     return type(f"LAMELLA_PG_kind_{kind.type}", (bpy.types.PropertyGroup,),
                 {"__annotations__": ann, "__doc__": kind.description.splitlines()[0]})
 
 
-KIND_GROUPS = {k.type: _kind_group(k) for k in (*COAT_KINDS.values(), *BASE_KINDS.values())}
-
-ICONS = {"coat": "MOD_THICKNESS", "conductor": "METAL", "diffuse": "MATSPHERE", "dielectric": "MOD_FLUIDSIM"}
-MEDIUM_ICON = "OUTLINER_DATA_VOLUME"
-
-
 def _kind_items(kinds):
-    return [(k.type, k.type.title(), k.description.splitlines()[0], ICONS.get(k.type, "DOT"), i)
+    return [(k.type, k.type.replace("_", " ").title(), k.description.splitlines()[0], k.icon, i)
             for i, k in enumerate(kinds.values())]
 
 
 class LAMELLA_PG_layer(bpy.types.PropertyGroup):
     """One coat of the stack; ``name`` is what the list shows."""
 
-    __annotations__ = {
-        "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
-        "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
-                             default=True, update=_on_edit),
-        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in COAT_KINDS},
-    }
+    __annotations__ = {}  # the registered coat kinds' (``build_classes``)
 
     def settings(self):
         """The PropertyGroup of this layer's live kind."""
@@ -188,10 +113,7 @@ class LAMELLA_PG_layer(bpy.types.PropertyGroup):
 class LAMELLA_PG_base(bpy.types.PropertyGroup):
     """The base closing the stack."""
 
-    __annotations__ = {
-        "kind": EnumProperty(name="Base", items=_kind_items(BASE_KINDS), update=_on_edit),
-        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in BASE_KINDS},
-    }
+    __annotations__ = {}  # the registered base kinds' (``build_classes``)
 
     def settings(self):
         return getattr(self, self.kind)
@@ -228,11 +150,7 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
     coats: CollectionProperty(type=LAMELLA_PG_layer, name="Coats", description="Coats, top to bottom")
     active_index: IntProperty(name="Active Layer", default=0, min=0)
     base: PointerProperty(type=LAMELLA_PG_base)
-    model: EnumProperty(
-        name="Model", description="Layered model the shader is built from",
-        items=[(m, m if m != "auto" else "Auto", "The best model for this stack's structure" if m == "auto"
-                else f"Force the {m} model", i) for i, m in enumerate(MODELS)],
-        default="auto", update=_on_edit)
+    # model: the registered models' (``build_classes``)
     picked_model: StringProperty(name="Picked Model", description="The model the last compile ran")
     lobe_budget: EnumProperty(
         name="Lobe Budget",
@@ -270,10 +188,38 @@ class LAMELLA_PG_material(bpy.types.PropertyGroup):
         return None
 
 
-classes = (*KIND_GROUPS.values(), LAMELLA_PG_layer, LAMELLA_PG_base, LAMELLA_PG_lobe, LAMELLA_PG_material)
+KIND_GROUPS: dict[str, type] = {}  # kind type -> its PropertyGroup, as last registered
+classes: tuple = ()
+
+
+def build_classes() -> tuple:
+    """The extension's PropertyGroups for the layer kinds and models registered now: one group per
+    kind, a pointer to each from the coat item (coat kinds) or the base (base kinds), and the kind
+    and model menus. Built at ``register`` so a kind an extension module registered before is
+    part of the panel, the stored data and every file saved."""
+    KIND_GROUPS.clear()
+    KIND_GROUPS.update({k.type: _kind_group(k) for k in (*COAT_KINDS.values(), *BASE_KINDS.values())})
+    LAMELLA_PG_layer.__annotations__ = {
+        "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
+        "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
+                             default=True, update=_on_edit),
+        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in COAT_KINDS},
+    }
+    LAMELLA_PG_base.__annotations__ = {
+        "kind": EnumProperty(name="Base", items=_kind_items(BASE_KINDS), update=_on_edit),
+        **{k: PointerProperty(type=KIND_GROUPS[k]) for k in BASE_KINDS},
+    }
+    LAMELLA_PG_material.__annotations__["model"] = EnumProperty(
+        name="Model", description="Layered model the shader is built from",
+        items=[(m, m if m != "auto" else "Auto", "The best model for this stack's structure" if m == "auto"
+                else f"Force the {m} model", i) for i, m in enumerate(MODELS)],
+        default="auto", update=_on_edit)
+    return (*KIND_GROUPS.values(), LAMELLA_PG_layer, LAMELLA_PG_base, LAMELLA_PG_lobe, LAMELLA_PG_material)
 
 
 def register():
+    global classes
+    classes = build_classes()
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Material.lamella = PointerProperty(type=LAMELLA_PG_material, name="Lamella")

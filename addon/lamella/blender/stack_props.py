@@ -11,6 +11,7 @@ import math
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.stack import Stack
+from .kind_hooks import hooks
 
 
 def _r7(x: float) -> float:
@@ -39,7 +40,8 @@ def kind_values(kind, pg) -> dict:
 
 
 def write_kind(kind, pg, layer) -> None:
-    """Write a parsed layer (a kind's dataclass) into its kind's PropertyGroup."""
+    """Write a parsed layer (a kind's dataclass) into its kind's PropertyGroup (then the kind's
+    ``written`` hook, ``kind_hooks``)."""
     for f in kind.fields:
         v = getattr(layer, f.name)
         if f.type in (FLOAT, ANGLE):
@@ -51,6 +53,9 @@ def write_kind(kind, pg, layer) -> None:
             setattr(pg, f"{f.name}_anisotropic", ax != ay)
             setattr(pg, f.name, math.sqrt(ax))
             setattr(pg, f"{f.name}_y", math.sqrt(ay))
+    written = hooks(kind.type).written
+    if written is not None:
+        written(pg)
 
 
 def stack_dict(settings, include_muted: bool = False) -> dict:
@@ -88,8 +93,6 @@ def write_stack(settings, stack: Stack) -> None:
     settings.active_index = 0
     settings.base.kind = stack.base.type
     write_kind(BASE_KINDS[stack.base.type], settings.base.settings(), stack.base)
-    if stack.base.type == "conductor":
-        settings.base.conductor.mode = "CUSTOM"
 
 
 def copy_layer(src, dst) -> None:

@@ -25,7 +25,7 @@ from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
 from .material_nodes import osl_usable
 from .operators import context_material
-from .properties import ICONS, MEDIUM_ICON
+from .kind_hooks import hooks, layer_icon as kind_layer_icon
 
 STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
 
@@ -37,10 +37,7 @@ def _wrapped(layout, text: str, icon: str = "NONE", width: int = 48) -> None:
 
 
 def layer_icon(item) -> str:
-    pg = item.settings()
-    if item.kind == "coat" and pg.thickness > 0 and any(x > 0 for x in pg.sigma_s):
-        return MEDIUM_ICON
-    return ICONS.get(item.kind, "DOT")
+    return kind_layer_icon(COAT_KINDS[item.kind], item.settings())
 
 
 # ---------------------------------------------------------------- pieces
@@ -137,7 +134,12 @@ def draw_layers(layout, mat) -> None:
         sub.enabled = enabled
         draw(sub)
     base = layout.row()
-    base.label(text=f"Base: {BASE_KINDS[s.base.kind].type.title()}", icon=ICONS.get(s.base.kind, "DOT"))
+    kind = BASE_KINDS[s.base.kind]
+    base.label(text=f"Base: {_kind_label(kind)}", icon=kind_layer_icon(kind, s.base.settings()))
+
+
+def _kind_label(kind) -> str:
+    return kind.type.replace("_", " ").title()
 
 
 def _is_anisotropic(kind, pg) -> bool:
@@ -195,31 +197,24 @@ def draw_active_layer(layout, mat) -> None:
         body.label(text="No coat: add one with +", icon="INFO")
         return
     body.prop(item, "name")
-    draw_fields(body, COAT_KINDS[item.kind], item.settings(), "lamella_layer")
+    kind, pg = COAT_KINDS[item.kind], item.settings()
+    draw_kind = hooks(kind.type).draw
+    enabled = draw_kind(body, pg) if draw_kind is not None else None
+    draw_fields(body, kind, pg, "lamella_layer", enabled)
 
 
 def draw_base(layout, mat) -> None:
     b = mat.lamella.base
     header, body = layout.panel("lamella_base", default_closed=False)
-    header.label(text=f"Base: {b.kind.title()}")
+    kind = BASE_KINDS[b.kind]
+    header.label(text=f"Base: {_kind_label(kind)}")
     if body is None:
         return
     body.row().prop(b, "kind", expand=True)
     pg = b.settings()
-    enabled = None
-    if b.kind == "conductor":
-        body.row().prop(pg, "mode", expand=True)
-        col = body.column()
-        col.use_property_split = True
-        col.use_property_decorate = False
-        if pg.mode == "MEASURED":
-            col.prop(pg, "metal")
-            enabled = {"roughness", "rotation"}
-        elif pg.mode == "ARTIST":
-            col.prop(pg, "reflectivity")
-            col.prop(pg, "edge_tint")
-            enabled = {"roughness", "rotation"}
-    draw_fields(body, BASE_KINDS[b.kind], pg, "lamella_base", enabled)
+    draw_kind = hooks(kind.type).draw
+    enabled = draw_kind(body, pg) if draw_kind is not None else None  # the kind's own part, then its fields
+    draw_fields(body, kind, pg, "lamella_base", enabled)
 
 
 def draw_model(layout, mat) -> None:

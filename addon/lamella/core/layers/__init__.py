@@ -1,8 +1,11 @@
 """Layer kinds, one module each (coat, conductor, diffuse, dielectric), and their registry.
 
-A new kind is one module declaring its ``FIELDS`` (the schema the parser, ``to_dict`` and the
-Blender properties read), its ``params`` (what the models read, as backend values) and, for a
-base, its ``response`` (its energies), plus one line below.
+A new kind is one module declaring its ``FIELDS`` (the schema the parser, ``to_dict``, the
+Blender properties and panel read), its ``params`` (what the models read, as backend values), for
+a base its ``response`` (its energies), and what it can do (``interface``, ``transmits``; see
+``LayerKind``), which is what the models and backends route on. It joins the registry with
+:func:`register` (the built-in kinds below; an extension's module calls it on import, before the
+Blender properties are registered).
 """
 from __future__ import annotations
 
@@ -10,8 +13,31 @@ from . import coat, conductor, dielectric, diffuse
 from .params import BaseResponse
 from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, LayerKind, StackError
 
-COAT_KINDS: dict[str, LayerKind] = {k.type: k for k in (coat.KIND,)}
-BASE_KINDS: dict[str, LayerKind] = {k.type: k for k in (conductor.KIND, diffuse.KIND, dielectric.KIND)}
+COAT_KINDS: dict[str, LayerKind] = {}
+BASE_KINDS: dict[str, LayerKind] = {}
+
+
+def _registry(kind: LayerKind) -> dict[str, LayerKind]:
+    return COAT_KINDS if kind.role == "coat" else BASE_KINDS
+
+
+def register(kind: LayerKind) -> LayerKind:
+    """Add ``kind`` to the registry of its role (the parser, the schema page, the Blender
+    properties and every backend then know it). Its ``type`` must be new to both roles."""
+    if kind.type in COAT_KINDS or kind.type in BASE_KINDS:
+        raise ValueError(f"a layer kind named {kind.type!r} is registered already")
+    _registry(kind)[kind.type] = kind
+    return kind
+
+
+def unregister(kind: LayerKind) -> None:
+    """Remove ``kind`` (a registered extension kind) from the registry."""
+    if _registry(kind).get(kind.type) is kind:
+        del _registry(kind)[kind.type]
+
+
+for _kind in (coat.KIND, conductor.KIND, diffuse.KIND, dielectric.KIND):
+    register(_kind)
 
 Coat = coat.Coat
 Conductor = conductor.Conductor
@@ -19,4 +45,4 @@ Diffuse = diffuse.Diffuse
 Dielectric = dielectric.Dielectric
 
 __all__ = ["COAT_KINDS", "BASE_KINDS", "LayerKind", "Field", "BaseResponse", "StackError", "Coat", "Conductor",
-           "Diffuse", "Dielectric", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]
+           "Diffuse", "Dielectric", "FLOAT", "RGB", "ROUGHNESS", "ANGLE", "register", "unregister"]

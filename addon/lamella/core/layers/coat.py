@@ -29,10 +29,6 @@ FIELDS = (
 )
 
 
-def _is_smooth(self) -> bool:
-    return self.roughness[0] == 0.0 and self.roughness[1] == 0.0
-
-
 def _has_absorption(self) -> bool:
     return self.thickness > 0.0 and any(s > 0.0 for s in self.sigma_a)
 
@@ -55,8 +51,7 @@ def params(ops, prefix: str, coat) -> dict:
     return p
 
 
-KIND = layer_kind("coat", "coat", "Coat", FIELDS, __doc__, params, namespace={
-    "is_smooth": property(_is_smooth),
+KIND = layer_kind("coat", "coat", "Coat", FIELDS, __doc__, params, icon="MOD_THICKNESS", namespace={
     "has_absorption": property(_has_absorption),
     "has_scattering": property(_has_scattering),
 })

@@ -35,5 +35,5 @@ def response(ops, p, mu, alpha, n_above) -> BaseResponse:
     return BaseResponse(reflectance=single, scattered=conductor_scattered(ops, mu, alpha, eta, k, single))
 
 
-KIND = layer_kind("conductor", "base", "Conductor", FIELDS, __doc__, params, response)
+KIND = layer_kind("conductor", "base", "Conductor", FIELDS, __doc__, params, response, icon="METAL")
 Conductor = KIND.cls

@@ -31,5 +31,6 @@ def response(ops, p, mu, alpha, n_above) -> BaseResponse:
     return BaseResponse(reflectance=RGBValue.splat(r), transmittance=RGBValue.splat(1.0 - r), eta=eta)
 
 
-KIND = layer_kind("dielectric", "base", "Dielectric", FIELDS, __doc__, params, response)
+KIND = layer_kind("dielectric", "base", "Dielectric", FIELDS, __doc__, params, response, transmits=True,
+                  icon="MOD_FLUIDSIM")
 Dielectric = KIND.cls

@@ -19,5 +19,6 @@ def response(ops, p, mu, alpha, n_above) -> BaseResponse:
     return BaseResponse(albedo=p["albedo"])
 
 
-KIND = layer_kind("diffuse", "base", "Diffuse", FIELDS, __doc__, params, response)
+KIND = layer_kind("diffuse", "base", "Diffuse", FIELDS, __doc__, params, response, interface=False,
+                  icon="MATSPHERE")
 Diffuse = KIND.cls

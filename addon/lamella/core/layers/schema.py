@@ -167,7 +167,15 @@ class LayerKind:
     ``params(ops, prefix, layer)``: the layer's parameters as backend values (shader inputs when
     traced), a dict the kind's own ``response`` and the models read;
     ``response(ops, p, mu, alpha, n_above)`` (bases only): a :class:`BaseResponse`, the base's
-    energies for light arriving at cosine ``mu`` from a medium of index ``n_above``."""
+    energies for light arriving at cosine ``mu`` from a medium of index ``n_above``.
+
+    What the layer can do, which is all the models and backends route on (never its name):
+    ``interface``: it has a rough GGX interface on top: its params hold ``ax``, ``ay`` and
+    ``rotation`` (``params.roughness_params``) and, for a base, its response's ``reflectance`` is
+    that interface's energy (every coat has one; a Lambertian base has none, and its response is
+    its ``albedo``); ``transmits`` (bases): light crossing the interface enters a substrate below
+    and leaves the stack downward: its params hold the substrate's absolute ``ior`` and its response
+    ``transmittance`` and ``eta``. ``icon``: the Blender icon name a panel shows for the kind."""
 
     type: str
     role: str
@@ -176,6 +184,9 @@ class LayerKind:
     description: str
     params: Callable
     response: Callable | None = None
+    interface: bool = True
+    transmits: bool = False
+    icon: str = "DOT"
 
     def field(self, name: str) -> Field:
         return next(f for f in self.fields if f.name == name)
@@ -193,18 +204,50 @@ class LayerKind:
         return {"type": self.type, **{f.name: f.to_json(getattr(layer, f.name)) for f in self.fields}}
 
 
+# What the models read from a coat besides its params (``Stack`` and ``choose_auto`` read them to
+# decide a stack's structure): a coat kind's fields or ``namespace`` properties must provide these.
+COAT_ATTRIBUTES = ("ior", "roughness", "has_absorption", "has_scattering", "is_smooth")
+
+
+def _is_smooth(layer) -> bool:
+    return layer.roughness[0] == 0.0 and layer.roughness[1] == 0.0
+
+
 def layer_kind(type_name: str, role: str, class_name: str, fields_: tuple[Field, ...], description: str,
-               params: Callable, response: Callable | None = None, namespace: dict | None = None) -> LayerKind:
+               params: Callable, response: Callable | None = None, namespace: dict | None = None, *,
+               interface: bool = True, transmits: bool = False, icon: str = "DOT") -> LayerKind:
     """Build a layer kind and its frozen dataclass (fields in schema order, defaults from the
-    schema, a read-only ``type`` attribute, and ``kind``: the LayerKind itself)."""
+    schema, a read-only ``type`` attribute, and ``kind``: the LayerKind itself).
+
+    What the models need of a kind's role is checked here, so a kind that lacks it fails when it
+    is declared, not in a shader: a base has a ``response``; a layer with an ``interface`` has
+    ``roughness`` and ``rotation`` fields; a coat has an interface and the ``COAT_ATTRIBUTES``
+    (``is_smooth`` comes from the roughness unless the kind defines it); a transmitting base has an
+    interface and an ``ior`` field."""
+    names = {f.name for f in fields_}
+    namespace = dict(namespace or {})
     for f in fields_:
         if f.lo is None or f.hi is None or not (-FLOAT32_MAX < f.lo <= f.hi < FLOAT32_MAX):
             raise ValueError(f"{type_name}.{f.name}: every field needs finite float32 hard limits lo <= hi")
+    if role not in ("coat", "base"):
+        raise ValueError(f"{type_name}: role must be 'coat' or 'base', got {role!r}")
+    if role == "base" and response is None:
+        raise ValueError(f"{type_name}: a base kind needs a response (its energies)")
+    if interface and not {"roughness", "rotation"} <= names:
+        raise ValueError(f"{type_name}: a layer with an interface needs 'roughness' and 'rotation' fields")
+    if role == "coat":
+        namespace.setdefault("is_smooth", property(_is_smooth))
+        missing = [a for a in COAT_ATTRIBUTES if a not in names and a not in namespace]
+        if not interface or missing:
+            raise ValueError(f"{type_name}: a coat has an interface and provides {', '.join(COAT_ATTRIBUTES)} "
+                             f"(missing: {', '.join(missing) or 'the interface'})")
+    if transmits and (role != "base" or not interface or "ior" not in names):
+        raise ValueError(f"{type_name}: a transmitting kind is a base with an interface and an 'ior' field")
     specs = [(f.name, Any, field(default=_frozen_default(f))) for f in fields_]
     specs.append(("type", str, field(default=type_name, init=False)))
-    cls = make_dataclass(class_name, specs, frozen=True, namespace=dict(namespace or {}))
+    cls = make_dataclass(class_name, specs, frozen=True, namespace=namespace)
     cls.__doc__ = description
-    kind = LayerKind(type_name, role, tuple(fields_), cls, description, params, response)
+    kind = LayerKind(type_name, role, tuple(fields_), cls, description, params, response, interface, transmits, icon)
     cls.kind = kind  # a class attribute, not a field: equality and to_dict ignore it
     return kind
 
@@ -218,4 +261,4 @@ def _frozen_default(f: Field):
     return f.default
 
 
-__all__ = ["StackError", "FLOAT32_MAX", "IOR_MIN", "IOR_MAX", "ANGLE_MAX", "THICKNESS_MAX", "SIGMA_MAX", "G_MAX", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]
+__all__ = ["StackError", "COAT_ATTRIBUTES", "FLOAT32_MAX", "IOR_MIN", "IOR_MAX", "ANGLE_MAX", "THICKNESS_MAX", "SIGMA_MAX", "G_MAX", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]

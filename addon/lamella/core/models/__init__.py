@@ -47,7 +47,7 @@ def choose_auto(stack) -> str:
     """
     if stack.has_scattering:
         return "tm6"
-    if (stack.base.type == "dielectric" and len(stack.coats) == 1
+    if (stack.base.kind.transmits and len(stack.coats) == 1
             and all(layer.roughness[0] == layer.roughness[1] for layer in (stack.coats[0], stack.base))):
         return "endf"
     return "yamaguchi2019"

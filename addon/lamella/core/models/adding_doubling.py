@@ -178,7 +178,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
 
     ops.set_scope("base")
     index = len(coats)
-    if stack.base.type == "diffuse":
+    if not base_kind.interface:
         # A Lambertian base: everything that reaches it becomes diffuse light going up
         albedo = base_kind.response(ops, base, cti, 0.0, n_above).albedo
         lobes.append(Lobe(diffuse_up.base_energy(ops, added.T0i, albedo), 0.0, 0.0, 0.0, "diffuse"))

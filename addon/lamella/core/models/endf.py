@@ -127,8 +127,9 @@ def check_supported(stack) -> None:
     if coat.has_scattering:
         raise UnsupportedStack("endf: coat 0 scatters (sigma_s > 0); the thin-layer model has no scattering media "
                                "(tm6 and auto have)")
-    if base.type not in ("conductor", "dielectric"):
-        raise UnsupportedStack(f"endf: the base is {base.type}; the thin-layer model takes a conductor or a dielectric")
+    if not base.kind.interface:
+        raise UnsupportedStack(f"endf: the base ({base.type}) has no interface; the thin-layer model takes a base "
+                               "with a rough interface (a conductor or a dielectric)")
     for where, layer in (("coat 0", coat), ("the base", base)):
         ax, ay = layer.roughness
         if ax != ay:

@@ -259,7 +259,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     for fam in range(1, n):
         if (fam, P) in E.td:
             reach = reach + E.td[(fam, P)]
-    if stack.base.type == "diffuse":
+    if not stack.base.kind.interface:  # a Lambertian base (``adding_doubling``)
         albedo = stack.base.kind.response(ops, base, cti, 0.0, n_above).albedo
         lobes.append(Lobe(diffuse_up.base_energy(ops, reach, albedo), 0.0, 0.0, 0.0, "diffuse"))
         ops.set_scope("lobes")
