@@ -196,6 +196,31 @@ KINDS: dict[str, LobeKind] = {k.name: k for k in (
 )}
 
 
+def register(kind_: LobeKind, osl_closure: Callable, bsdf_node: Callable) -> LobeKind:
+    """Add a lobe kind with its printer for the OSL backend (``backends.osl_closures``) and its
+    builder for the node-graph backend (``backends.bsdf_nodes``): the three tables every lobe is
+    evaluated, printed and built from. Lobes of a new kind are never merged with others
+    (``backends.lobe_budget.MERGEABLE``)."""
+    from .backends import bsdf_nodes, osl_closures
+
+    if kind_.name in KINDS:
+        raise ValueError(f"a lobe kind named {kind_.name!r} is registered already")
+    if kind_.side not in ("reflected", "transmitted"):
+        raise ValueError(f"lobe kind {kind_.name!r}: side is 'reflected' or 'transmitted', got {kind_.side!r}")
+    KINDS[kind_.name] = kind_
+    osl_closures.CLOSURES[kind_.name] = osl_closure
+    bsdf_nodes.BSDF_NODES[kind_.name] = bsdf_node
+    return kind_
+
+
+def unregister(name: str) -> None:
+    """Remove a lobe kind registered by :func:`register` from the three tables."""
+    from .backends import bsdf_nodes, osl_closures
+
+    for table in (KINDS, osl_closures.CLOSURES, bsdf_nodes.BSDF_NODES):
+        table.pop(name, None)
+
+
 def kind(name: str) -> LobeKind:
     if name not in KINDS:
         raise NotImplementedError(f"lobe kind {name!r} is not in the lobe-kind table (have: {', '.join(KINDS)})")

@@ -37,25 +37,15 @@ class TracedClosures:
     closures: list
 
 
-class _Declared:
-    """Stands in for an ops object in a layer kind's ``params``: records each parameter's name and
-    value, in the order the kind declares them."""
-
-    def __init__(self):
-        self.values = {}
-
-    def param(self, name, value):
-        self.values[name] = value
-        return value
-
-
 def declared_params(stack) -> dict:
-    """Parameter name -> value of ``stack``, as its layer kinds declare them (``layers.params``)."""
-    rec = _Declared()
+    """Parameter name -> value of ``stack``, as its layer kinds declare them (``layers.params``),
+    in the order they declare them. A kind's ``params`` may compute with its parameters (a colour
+    turned into an absorption), so they are traced, which costs only those few nodes."""
+    t = Tracer()
     for i, c in enumerate(stack.coats):
-        c.kind.params(rec, f"coat{i}", c)
-    stack.base.kind.params(rec, "base", stack.base)
-    return rec.values
+        c.kind.params(t, f"coat{i}", c)
+    stack.base.kind.params(t, "base", stack.base)
+    return dict(t.defaults)
 
 
 def structure_of(stack, model: str = "auto") -> tuple:

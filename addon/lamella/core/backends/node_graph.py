@@ -36,14 +36,14 @@ from .. import luts
 from .bsdf_nodes import BSDF_NODES
 from .closures import trace_closures
 from .trace import Expr, Tracer
+from .traced_ops import OPS
 
 ENERGY_EPS = 1e-6
 CHUNK_NODES = 120  # nodes per nested group: creation time grows with the square of a tree's size
 SECTION_CHUNKS = 16  # chunks per section group: links too cost time in proportion to their tree
 
 _MATH = {"add": "ADD", "sub": "SUBTRACT", "mul": "MULTIPLY", "div": "DIVIDE", "lt": "LESS_THAN",
-         "gt": "GREATER_THAN", "sqrt": "SQRT", "exp": "EXPONENT", "pow": "POWER", "abs": "ABSOLUTE",
-         "min": "MINIMUM", "max": "MAXIMUM", "cos": "COSINE", "sin": "SINE", "atan2": "ARCTAN2"}
+         "gt": "GREATER_THAN"}  # arithmetic; the functions build their own nodes (``traced_ops``)
 MATH_IN = ("Value", "Value_001", "Value_002")  # socket identifiers of a Math node's inputs
 
 
@@ -192,8 +192,8 @@ class _Lowering:
                 v = self.math("SUBTRACT", 1.0, self.math("GREATER_THAN", a[0], a[1]))
             elif e.op == "ge":
                 v = self.math("SUBTRACT", 1.0, self.math("LESS_THAN", a[0], a[1]))
-            elif e.op == "log":
-                v = self.math("LOGARITHM", a[0], math.e)
+            elif e.op in OPS:
+                v = OPS[e.op].nodes(self.math, *a)
             elif e.op == "select":
                 v = self.select(*a)
             elif e.op == "lut":

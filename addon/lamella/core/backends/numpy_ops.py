@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import luts as _luts
+from .traced_ops import OPS
 
 
 class NumpyOps:
@@ -41,41 +42,12 @@ class NumpyOps:
         return np.asarray(value, dtype=self.dtype)
 
     # ------------------------------------------------------------------ math
-    def sqrt(self, x):
-        return np.sqrt(x)
-
-    def exp(self, x):
-        return np.exp(x)
-
-    def log(self, x):
-        return np.log(x)
-
-    def pow(self, x, y):
-        return np.power(x, self.dtype.type(y) if isinstance(y, float) else y)
-
-    def abs(self, x):
-        return np.abs(x)
-
-    def min(self, a, b):
-        return np.minimum(a, b)
-
-    def max(self, a, b):
-        return np.maximum(a, b)
-
+    # sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function: ``traced_ops``
     def clamp(self, x, lo, hi):
         return np.minimum(np.maximum(x, lo), hi)
 
     def select(self, cond, a, b):
         return np.where(cond, a, b).astype(self.dtype, copy=False)
-
-    def cos(self, x):
-        return np.cos(x)
-
-    def sin(self, x):
-        return np.sin(x)
-
-    def atan2(self, y, x):
-        return np.arctan2(y, x)
 
     # ------------------------------------------------------------------ tables
     def lut(self, name: str, *coords):
@@ -117,3 +89,12 @@ def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
         offsets = np.concatenate([offsets, offsets + stride])
     corners = table.reshape(-1).take(base[None] + offsets.reshape((-1,) + (1,) * len(shape)))
     return (w * corners).sum(0, dtype=dtype)
+
+
+def install(op) -> None:
+    """``ops.<name>`` of a traced operation (``traced_ops``) on the numpy backend."""
+    setattr(NumpyOps, op.name, lambda self, *xs: op.numpy(self, *xs))
+
+
+for _op in OPS.values():
+    install(_op)

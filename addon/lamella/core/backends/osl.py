@@ -28,6 +28,7 @@ from .closures import trace_closures
 from .osl_closures import CLOSURES
 from .sockets import by_param, sockets
 from .trace import Expr, Tracer
+from .traced_ops import OPS
 
 OSL_DIR = Path(__file__).resolve().parents[2] / "data" / "osl"  # inside the package: every install emits OSL
 LUT_HEADER = "lamella_luts.h"
@@ -43,8 +44,6 @@ VIEW_LINES = {
 
 _BIN = {"add": "+", "sub": "-", "mul": "*", "div": "/", "lt": "<", "le": "<=", "gt": ">", "ge": ">="}
 _CMP = {"lt", "le", "gt", "ge"}
-_FUN = {"sqrt": "sqrt", "exp": "exp", "log": "log", "pow": "pow", "abs": "fabs", "min": "min",
-        "max": "max", "cos": "cos", "sin": "sin", "atan2": "atan2"}
 
 
 def _literal(x: float) -> str:
@@ -118,7 +117,7 @@ class _Printer:
                 raise NotImplementedError("tables over linked parameters (staging's live_axes) are the node "
                                           "group's; an OSL shader traces what its linked inputs reach")
             else:
-                rhs = f"{_FUN[e.op]}({', '.join(self.ref(x) for x in a)})"
+                rhs = OPS[e.op].osl_expression([self.ref(x) for x in a])
             self.lines.append(f"    {'int' if e.op in _CMP else 'float'} {name} = {rhs};")
 
     def _mtab(self, col: int, c: str, p: str) -> str:

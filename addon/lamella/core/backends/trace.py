@@ -13,6 +13,8 @@ import math
 import operator
 from typing import Any
 
+from .traced_ops import OPS
+
 _BINARY = {
     "add": operator.add, "sub": operator.sub, "mul": operator.mul, "div": operator.truediv,
     "lt": operator.lt, "le": operator.le, "gt": operator.gt, "ge": operator.ge,
@@ -105,7 +107,9 @@ class Tracer:
             norm.append(a)
         args = tuple(norm)
         if numbers and op in _FOLD:
-            return _FOLD[op](*args)
+            folded = _FOLD[op](*args)
+            if folded is not None:
+                return folded
         simplified = _simplify(op, args)
         if simplified is not None:
             return simplified
@@ -133,17 +137,8 @@ class Tracer:
         return e
 
     # ---------------------------------------------------------------- ops
-    def sqrt(self, x): return self.node("sqrt", x)
-    def exp(self, x): return self.node("exp", x)
-    def log(self, x): return self.node("log", x)
-    def pow(self, x, y): return self.node("pow", x, y)
-    def abs(self, x): return self.node("abs", x)
-    def min(self, a, b): return self.node("min", a, b)
-    def max(self, a, b): return self.node("max", a, b)
+    # sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function: ``traced_ops``
     def clamp(self, x, lo, hi): return self.node("min", self.node("max", x, lo), hi)
-    def cos(self, x): return self.node("cos", x)
-    def sin(self, x): return self.node("sin", x)
-    def atan2(self, y, x): return self.node("atan2", y, x)
 
     def select(self, cond, a, b):
         if isinstance(cond, bool):
@@ -301,12 +296,18 @@ def _compile(nodes: list[Expr], own: set[int]):
     return namespace["_evaluate"]
 
 
-_FOLD = dict(_BINARY)
-_FOLD.update({
-    "sqrt": math.sqrt, "exp": math.exp, "log": math.log, "pow": math.pow, "abs": abs,
-    "min": min, "max": max, "cos": math.cos, "sin": math.sin, "atan2": math.atan2,
-    "select": lambda c, a, b: a if c else b,
-})
+_FOLD = dict(_BINARY)  # the value of an operation on numbers; the functions' from ``traced_ops``
+_FOLD["select"] = lambda c, a, b: a if c else b
+
+
+def install(op) -> None:
+    """``ops.<name>`` of a traced operation (``traced_ops``) on the tracer, and its folding."""
+    setattr(Tracer, op.name, lambda self, *xs: self.node(op.name, *xs))
+    _FOLD[op.name] = op.fold
+
+
+for _op in OPS.values():
+    install(_op)
 
 
 def _simplify(op, args):

@@ -1,0 +1,19 @@
+"""Extensions written the way a new kind joins Lamella, one module each, for the contract tests
+(``tests/unit/test_extension_contract.py``, ``tests/blender/test_extension_contract.py``): a
+traced operation (``absorbance``), a coat kind that uses it (``tinted_lacquer``), a base kind
+(``artist_metal``) and a lobe kind (``translucent``). Each has ``register()`` and
+``unregister()``; nothing registers on import, so the rest of the suite never sees them."""
+
+from . import absorbance, artist_metal, tinted_lacquer, translucent
+
+MODULES = (absorbance, tinted_lacquer, artist_metal, translucent)  # in the order they register
+
+
+def register():
+    for m in MODULES:
+        m.register()
+
+
+def unregister():
+    for m in reversed(MODULES):
+        m.unregister()
