@@ -82,6 +82,9 @@ def _sample_hg(w, g, u1, u2):
 
 
 # ---------------------------------------------------------------- the stack as the walk sees it
+KNOWN_KINDS = {False: ("coat",), True: ("conductor", "diffuse", "dielectric")}  # coats, bases
+
+
 class _Layers:
     """Media 0..N (0 = vacuum above, m = interior of coat m-1) and interfaces 0..N (interface j
     between media j and j+1; interface N is the base)."""
@@ -89,6 +92,12 @@ class _Layers:
     def __init__(self, stack: Stack, interfaces: str = "single"):
         if interfaces not in INTERFACES:
             raise ValueError(f"interfaces must be one of {', '.join(INTERFACES)}, got {interfaces!r}")
+        # The walk knows each kind's physics itself, on purpose (it judges the models, so it does
+        # not read the kinds' own responses): a kind it does not know has no reference yet.
+        for where, layer in [*((f"coat {i}", c) for i, c in enumerate(stack.coats)), ("base", stack.base)]:
+            if layer.type not in KNOWN_KINDS[where == "base"]:
+                raise ValueError(f"{where}: the stochastic reference has no walk for {layer.type!r} layers "
+                                 f"(it knows {', '.join(KNOWN_KINDS[where == 'base'])})")
         self.stack = stack
         self.multiple = interfaces == "multiple"
         coats = stack.coats

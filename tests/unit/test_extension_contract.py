@@ -23,7 +23,6 @@ from lamella.core.backends.trace import Tracer
 from lamella.core.layers import BASE_KINDS, COAT_KINDS, StackError
 from lamella.core.layers.schema import FLOAT, Field, layer_kind
 from lamella.core.models import MODELS, UnsupportedStack
-from lamella.core.models.adding_doubling import Lobe
 
 from . import extension_kinds
 from .test_node_graph import _compare, _directions
@@ -69,40 +68,22 @@ PAIRS = {
 }
 
 
-class SplitDiffuse:
-    """A model that emits the extension's lobe kind: yamaguchi2019, with half of the light a
-    Lambertian base sends up leaving through the surface instead (a thin diffuser)."""
-
-    name = "split_diffuse"
-
-    def run(self, ops, stack, wi):
-        out = []
-        for lobe in MODELS["yamaguchi2019"].run(ops, stack, wi):
-            if lobe.kind == "diffuse":
-                half = lobe.weight * 0.5
-                out += [Lobe(half, 0.0, 0.0, 0.0, "diffuse"), Lobe(half, 0.0, 0.0, 0.0, "translucent")]
-            else:
-                out.append(lobe)
-        return out
-
-
 @pytest.fixture(scope="module", autouse=True)
 def extension():
     extension_kinds.register()
-    MODELS["split_diffuse"] = SplitDiffuse()
     yield
-    del MODELS["split_diffuse"]
     extension_kinds.unregister()
 
 
 # ---------------------------------------------------------------- layer kinds
 def test_registering_adds_the_kinds_and_unregistering_removes_them():
     assert "tinted_lacquer" in COAT_KINDS and "artist_metal" in BASE_KINDS
-    assert "translucent" in lobe_kinds.KINDS and "absorbance" in traced_ops.OPS
+    assert "translucent" in lobe_kinds.KINDS and "absorbance" in traced_ops.OPS and "split_diffuse" in MODELS
     extension_kinds.unregister()
     try:
         assert "tinted_lacquer" not in COAT_KINDS and "artist_metal" not in BASE_KINDS
         assert "translucent" not in lobe_kinds.KINDS and "absorbance" not in traced_ops.OPS
+        assert "split_diffuse" not in MODELS
         assert not hasattr(Tracer(), "absorbance")
         with pytest.raises(StackError, match="tinted_lacquer"):
             lc.Stack.from_dict(PAIRS["lacquer over artist metal"][0])
@@ -258,3 +239,16 @@ def test_registries_refuse_clashes_and_incomplete_kinds():
     with pytest.raises(ValueError, match="transmitting"):
         layer_kind("leaky_base", "base", "B", (f,), "doc", lambda *a: {}, lambda *a: None, interface=False,
                    transmits=True)
+
+
+def test_the_stochastic_reference_refuses_kinds_it_has_no_walk_for():
+    """The reference judges the models, so it knows each kind's physics itself instead of reading
+    the kinds' responses: a new kind has no reference until its walk is written, and says so."""
+    from lamella_dev import reference
+
+    wi = random_dirs(2, 8)
+    with pytest.raises(ValueError, match="coat 0: the stochastic reference has no walk for 'tinted_lacquer'"):
+        reference.albedo(PAIRS["lacquer over artist metal"][0], wi, spp=16)
+    with pytest.raises(ValueError, match="base: the stochastic reference has no walk for 'artist_metal'"):
+        reference.albedo(PAIRS["artist metal alone"][0], wi, spp=16)
+    assert reference.albedo(PAIRS["artist metal alone"][1], wi, spp=16)[0].shape == (2, 3)

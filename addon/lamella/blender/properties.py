@@ -26,7 +26,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from ..core.api import MODELS
+from ..core.models import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from . import kind_hooks
 
@@ -212,7 +212,7 @@ def build_classes() -> tuple:
     LAMELLA_PG_material.__annotations__["model"] = EnumProperty(
         name="Model", description="Layered model the shader is built from",
         items=[(m, m if m != "auto" else "Auto", "The best model for this stack's structure" if m == "auto"
-                else f"Force the {m} model", i) for i, m in enumerate(MODELS)],
+                else f"Force the {m} model", i) for i, m in enumerate(("auto", *MODELS))],
         default="auto", update=_on_edit)
     return (*KIND_GROUPS.values(), LAMELLA_PG_layer, LAMELLA_PG_base, LAMELLA_PG_lobe, LAMELLA_PG_material)
 
