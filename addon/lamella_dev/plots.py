@@ -60,7 +60,7 @@ def plot_stack(stack, out: Path, models=("auto", "belcour2018", "weier2020", "ya
     import matplotlib.pyplot as plt
 
     stack = Stack.coerce(stack)
-    planes = ("in", "perp", "trans") if stack.base.type == "dielectric" else ("in", "perp")
+    planes = ("in", "perp", "trans") if stack.base.kind.transmits else ("in", "perp")
     fig, axes = plt.subplots(len(planes), len(thetas), figsize=(4.2 * len(thetas), 3.5 * len(planes)), squeeze=False)
     for col, th in enumerate(thetas):
         wi = np.array([math.sin(math.radians(th)), 0.0, math.cos(math.radians(th))])

@@ -43,7 +43,7 @@ def _angle_arrays(stack, deg: float, spp: int, albedo_spp: int, seed: int, inter
     amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + k + 1, interfaces=interfaces)
     out = {"wo": wo, "weight": weight, "mean": mean, "stderr": err,
            "albedo": np.asarray(amean).reshape(3), "albedo_stderr": np.asarray(aerr).reshape(3)}
-    if stack.base.type == "dielectric":  # light crossing the base: the transmitted side
+    if stack.base.kind.transmits:  # light crossing the base: the transmitted side
         wo, weight = suite.wo_grid_transmitted(wi)
         mean, err = reference.eval_brdf_cos(stack, wi, wo, spp=spp, seed=seed + k + 2, interfaces=interfaces)
         amean, aerr = reference.albedo(stack, wi, spp=albedo_spp, seed=seed + k + 3, side="transmitted",

@@ -55,7 +55,7 @@ def baked_error(stack, st) -> tuple[float, tuple]:
         for phi in ((0.0,) if st.frame == "view" else AZIMUTHS):
             wi = suite.incident(th, phi)
             wo, w = suite.wo_grid(wi)
-            sides = [wo] + ([wo * np.array([1.0, 1.0, -1.0])] if stack.base.type == "dielectric" else [])
+            sides = [wo] + ([wo * np.array([1.0, 1.0, -1.0])] if stack.base.kind.transmits else [])
             for wo_s in sides:
                 e = relative_l1(api.evaluate(stack, wi, wo_s), staging.evaluate_staged(st, wi, wo_s).astype(float), w)
                 if e > worst:
