@@ -13,6 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..core.stack import MAX_COATS, Stack, StackError
+from .i18n import rpt_
 
 
 def context_material(context):
@@ -52,15 +53,16 @@ class _MaterialOperator:
         if self.material:
             mat = bpy.data.materials.get(self.material)
             if mat is None:
-                raise LookupError(f"no material named {self.material!r}")
+                raise LookupError(rpt_("no material named {name!r}").format(name=self.material))
         else:
             mat = context_material(context)
             if mat is None:
-                raise LookupError("no material: select an object with a material, or name one with material=")
+                raise LookupError(rpt_("no material: select an object with a material, or name one with material="))
         if mat.library is not None:
-            raise LookupError(f"material {mat.name!r} is linked from another file and cannot be edited")
+            raise LookupError(rpt_("material {name!r} is linked from another file and cannot be edited").format(name=mat.name))
         if self.needs_lamella and not mat.lamella.enabled:
-            raise LookupError(f"material {mat.name!r} is not a Lamella material (use Lamella > Enable)")
+            raise LookupError(rpt_("material {name!r} is not a Lamella material (use Lamella > Enable)").format(
+                name=mat.name))
         return mat
 
     def execute(self, context):
@@ -71,7 +73,7 @@ class _MaterialOperator:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         except Exception as e:  # never raise into the interface; say what happened
-            self.report({"ERROR"}, f"{type(e).__name__}: {e}")
+            self.report({"ERROR"}, "{}: {}".format(type(e).__name__, e))
             return {"CANCELLED"}
         return result or {"FINISHED"}
 
@@ -84,7 +86,7 @@ class _MaterialOperator:
         if recompile.compile_material(mat, defer_group=not recompile.groups_needed(), inspect=False):
             recompile.schedule_inspector(mat)
         else:
-            self.report({"WARNING"}, f"{mat.name}: {mat.lamella.status_message}")
+            self.report({"WARNING"}, "{}: {}".format(mat.name, mat.lamella.status_message))
 
 
 # ---------------------------------------------------------------- material
@@ -123,7 +125,7 @@ class LAMELLA_OT_material_new(_MaterialOperator, bpy.types.Operator):
             else:
                 ob.data.materials.append(mat)
                 ob.active_material_index = len(ob.material_slots) - 1
-        self.report({"INFO"}, f"created {mat.name}")
+        self.report({"INFO"}, rpt_("created {material}").format(material=mat.name))
 
 
 class LAMELLA_OT_enable(_MaterialOperator, bpy.types.Operator):
@@ -137,7 +139,7 @@ class LAMELLA_OT_enable(_MaterialOperator, bpy.types.Operator):
         from . import api
 
         if mat.lamella.enabled:
-            self.report({"INFO"}, f"{mat.name} already is a Lamella material")
+            self.report({"INFO"}, rpt_("{material} already is a Lamella material").format(material=mat.name))
             return
         api.apply_stack(mat, Stack.from_dict({"layers": [{}], "base": {"type": "conductor"}}), "auto")
 
@@ -168,9 +170,10 @@ class LAMELLA_OT_recompile(_MaterialOperator, bpy.types.Operator):
         from . import recompile
 
         if not recompile.compile_material(mat):
-            self.report({"ERROR"}, f"{mat.name}: {mat.lamella.status_message}")
+            self.report({"ERROR"}, "{}: {}".format(mat.name, mat.lamella.status_message))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"{mat.name}: compiled ({mat.lamella.picked_model}, {mat.lamella.compile_ms:.0f} ms)")
+        self.report({"INFO"}, rpt_("{material}: compiled ({model}, {ms:.0f} ms)").format(
+            material=mat.name, model=mat.lamella.picked_model, ms=mat.lamella.compile_ms))
 
 
 # ---------------------------------------------------------------- layers
@@ -202,7 +205,7 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
 
         s = mat.lamella
         if len(s.coats) >= MAX_COATS:
-            raise ValueError(f"a stack holds at most {MAX_COATS} coats")
+            raise ValueError(rpt_("a stack holds at most {n} coats").format(n=MAX_COATS))
         t = next(t for t in presets.layer_templates() if t["id"] == self.template)
         kind = COAT_KINDS[t["layer"].get("type", "coat")]
         layer = kind.parse(f"template {t['id']}", t["layer"])
@@ -238,10 +241,10 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
 
         s = mat.lamella
         if not s.coats:
-            raise ValueError("there is no coat to remove (the base stays)")
+            raise ValueError(rpt_("there is no coat to remove (the base stays)"))
         if not 0 <= s.active_index < len(s.coats):
-            raise ValueError(f"select a coat to remove (the active index {s.active_index} is no coat; "
-                             f"there are {len(s.coats)})")
+            raise ValueError(rpt_("select a coat to remove (the active index {index} is no coat; there are {n})").format(
+                index=s.active_index, n=len(s.coats)))
         with recompile.suspended():
             s.coats.remove(s.active_index)
             s.active_index = max(0, min(s.active_index, len(s.coats) - 1))
@@ -263,9 +266,10 @@ class LAMELLA_OT_layer_move(_MaterialOperator, bpy.types.Operator):
         i = s.active_index
         j = i - 1 if self.direction == "UP" else i + 1
         if not 0 <= i < len(s.coats):
-            raise ValueError("select a coat to move")
+            raise ValueError(rpt_("select a coat to move"))
         if not 0 <= j < len(s.coats):
-            raise ValueError(f"coat {i} is already the {'top' if self.direction == 'UP' else 'lowest'} coat")
+            raise ValueError((rpt_("coat {i} is already the top coat") if self.direction == "UP"
+                              else rpt_("coat {i} is already the lowest coat")).format(i=i))
         with recompile.suspended():
             s.coats.move(i, j)
             s.active_index = j
@@ -284,9 +288,9 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
 
         s = mat.lamella
         if not 0 <= s.active_index < len(s.coats):
-            raise ValueError("select a coat to duplicate")
+            raise ValueError(rpt_("select a coat to duplicate"))
         if len(s.coats) >= MAX_COATS:
-            raise ValueError(f"a stack holds at most {MAX_COATS} coats")
+            raise ValueError(rpt_("a stack holds at most {n} coats").format(n=MAX_COATS))
         with recompile.suspended():
             src = s.active_index
             item = s.coats.add()
@@ -314,7 +318,8 @@ def _apply_file_stack(op, mat, stack) -> None:
     from . import api
 
     api.apply_stack(mat, stack)
-    op.report({"INFO"}, f"{mat.name}: {stack.name or 'stack'} applied ({mat.lamella.picked_model})")
+    op.report({"INFO"}, rpt_("{material}: {stack} applied ({model})").format(
+        material=mat.name, stack=stack.name or rpt_("stack"), model=mat.lamella.picked_model))
 
 
 class LAMELLA_OT_preset_apply(_MaterialOperator, bpy.types.Operator):
@@ -350,9 +355,9 @@ class LAMELLA_OT_preset_save(_MaterialOperator, bpy.types.Operator):
         from . import api, paths
 
         if not self.name.strip():
-            raise ValueError("give the preset a name")
+            raise ValueError(rpt_("give the preset a name"))
         path = presets.save_user(paths.user_presets_dir(), self.name.strip(), Stack.from_dict(api.read_stack(mat)))
-        self.report({"INFO"}, f"saved preset {self.name!r} to {path}")
+        self.report({"INFO"}, rpt_("saved preset {name!r} to {path}").format(name=self.name, path=path))
 
 
 class LAMELLA_OT_preset_remove(_MaterialOperator, bpy.types.Operator):
@@ -374,9 +379,9 @@ class LAMELLA_OT_preset_remove(_MaterialOperator, bpy.types.Operator):
 
         p = presets.find(self.preset, paths.user_presets_dir())
         if p.builtin:
-            raise ValueError(f"{p.label!r} is a built-in preset")
+            raise ValueError(rpt_("{name!r} is a built-in preset").format(name=p.label))
         p.path.unlink()
-        self.report({"INFO"}, f"removed preset {p.label!r}")
+        self.report({"INFO"}, rpt_("removed preset {name!r}").format(name=p.label))
 
 
 class LAMELLA_OT_stack_import(_MaterialOperator, bpy.types.Operator, ImportHelper):
@@ -393,7 +398,7 @@ class LAMELLA_OT_stack_import(_MaterialOperator, bpy.types.Operator, ImportHelpe
         try:
             text = open(self.filepath, encoding="utf-8").read()
         except OSError as e:
-            raise OSError(f"cannot read {self.filepath}: {e.strerror}") from None
+            raise OSError(rpt_("cannot read {path}: {why}").format(path=self.filepath, why=e.strerror)) from None
         _apply_file_stack(self, mat, Stack.from_json(text))
 
 
@@ -413,7 +418,7 @@ class LAMELLA_OT_stack_export(_MaterialOperator, bpy.types.Operator, ExportHelpe
         text = api.read_stack_json(mat)
         with open(self.filepath, "w", encoding="utf-8") as f:
             f.write(text + "\n")
-        self.report({"INFO"}, f"wrote {self.filepath}")
+        self.report({"INFO"}, rpt_("wrote {path}").format(path=self.filepath))
 
 
 class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper):
@@ -443,7 +448,7 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
         shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
                               target=self.target_convention, file_name=out.name, live=linked_sockets(mat),
                               budget=mat.lamella.lobe_budget)
-        self.report({"INFO"}, f"wrote {shader} and its tables")
+        self.report({"INFO"}, rpt_("wrote {shader} and its tables").format(shader=shader))
 
 
 # ---------------------------------------------------------------- render settings
@@ -463,7 +468,7 @@ class LAMELLA_OT_fix_render_settings(bpy.types.Operator):
         sc.render.engine = "CYCLES"
         sc.cycles.shading_system = True
         sc.cycles.device = "CPU"
-        self.report({"INFO"}, "Cycles with Open Shading Language on the CPU")
+        self.report({"INFO"}, rpt_("Cycles with Open Shading Language on the CPU"))
         return {"FINISHED"}
 
 

@@ -25,15 +25,17 @@ from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
 from .material_nodes import osl_usable
 from .operators import context_material
+from .i18n import iface_
 from .kind_hooks import hooks, layer_icon as kind_layer_icon
 
 STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
 
 
 def _wrapped(layout, text: str, icon: str = "NONE", width: int = 48) -> None:
+    """``text`` (already in the interface language: ``iface_``) in lines of about ``width``."""
     col = layout.column(align=True)
     for i, line in enumerate(textwrap.wrap(text, width) or [""]):
-        col.label(text=line, icon=icon if i == 0 else "BLANK1")
+        col.label(text=line, icon=icon if i == 0 else "BLANK1", translate=False)
 
 
 def layer_icon(item) -> str:
@@ -53,15 +55,16 @@ def draw_status(layout, context, mat) -> None:
     box = layout.box()
     if s.status == "ERROR":
         box.alert = True
-        _wrapped(box, s.status_message.splitlines()[0] if s.status_message else "error", "ERROR")
+        _wrapped(box, s.status_message.splitlines()[0] if s.status_message else iface_("error"), "ERROR")
         box.label(text="The material keeps its last working shader.", icon="BLANK1")
     elif s.status == "OK" and (why := _broken(mat)):
         box.alert = True
-        _wrapped(box, f"Needs repair: {why}", "ERROR")
+        _wrapped(box, iface_("Needs repair: {why}").format(why=why), "ERROR")
         box.label(text="Repaired at the next render or edit, or with Recompile.", icon="BLANK1")
     elif s.status == "OK":
-        picked = f"auto: {s.picked_model}" if s.model == "auto" else s.picked_model
-        box.label(text=f"Compiled ({picked}, {s.compile_ms:.0f} ms)", icon="CHECKMARK")
+        picked = iface_("auto: {model}").format(model=s.picked_model) if s.model == "auto" else s.picked_model
+        box.label(text=iface_("Compiled ({model}, {ms:.0f} ms)").format(model=picked, ms=s.compile_ms), icon="CHECKMARK",
+                  translate=False)
     else:
         box.label(text="Compiling..." if s.status == "PENDING" else "Not compiled",
                   icon=STATUS_ICONS.get(s.status, "INFO"))
@@ -69,34 +72,39 @@ def draw_status(layout, context, mat) -> None:
 
     note, fix = None, False
     if sc.render.engine == "CYCLES" and not osl_usable(sc):
-        why = "Open Shading Language is off" if not sc.cycles.shading_system else "this GPU device runs no OSL"
-        note, fix = f"Cycles renders the node group ({why}): the same image as the OSL shader.", True
+        why = iface_("Open Shading Language is off") if not sc.cycles.shading_system else iface_(
+            "this GPU device runs no OSL")
+        values = {"why": why, "live": s.live_params or iface_("none"), "values": s.node_live_values,
+                  "holds": SVM_STACK - SVM_HEADROOM, "tables": s.node_tables}
+        note, fix = iface_("Cycles renders the node group ({why}): the same image as the OSL shader."), True
         if s.node_live_values > SVM_STACK - SVM_HEADROOM:
-            note = (f"Cycles renders the node group ({why}), but the part of it that reads the linked "
-                    f"inputs ({s.live_params or 'none'}) is too large for it ({s.node_live_values} live "
-                    f"values, Cycles holds about {SVM_STACK - SVM_HEADROOM}) and renders black: unlink an "
-                    "input (baked values cost nothing), or use Cycles with OSL on the CPU.")
+            note = iface_("Cycles renders the node group ({why}), but the part of it that reads the linked "
+                          "inputs ({live}) is too large for it ({values} live values, Cycles holds about {holds}) "
+                          "and renders black: unlink an input (baked values cost nothing), or use Cycles with OSL "
+                          "on the CPU.")
             box.alert = True
         elif s.node_tables:
-            note = (f"Cycles renders the node group ({why}). What its linked inputs reach is too large for Cycles "
-                    f"to trace here, so it reads that from tables over their range: {s.node_tables} (a texture "
-                    "value outside is clamped). Within about 1 % of the OSL shader, which traces them exactly; "
-                    "narrow lobes (roughness near 0.1 under a rougher coat) can differ more.")
+            note = iface_("Cycles renders the node group ({why}). What its linked inputs reach is too large for "
+                          "Cycles to trace here, so it reads that from tables over their range: {tables} (a texture "
+                          "value outside is clamped). Within about 1 % of the OSL shader, which traces them exactly; "
+                          "narrow lobes (roughness near 0.1 under a rougher coat) can differ more.")
         elif s.live_params and s.node_live_values > SVM_UNSURE:
-            note = (f"Cycles renders the node group ({why}); the part of it that reads the linked inputs "
-                    f"({s.live_params}) is near what Cycles holds ({s.node_live_values} live values, about "
-                    f"{SVM_STACK - SVM_HEADROOM} fit) and may render black: check a render, and if it is "
-                    "black unlink an input (baked values cost nothing) or use Cycles with OSL on the CPU.")
+            note = iface_("Cycles renders the node group ({why}); the part of it that reads the linked inputs "
+                          "({live}) is near what Cycles holds ({values} live values, about {holds} fit) and may "
+                          "render black: check a render, and if it is black unlink an input (baked values cost "
+                          "nothing) or use Cycles with OSL on the CPU.")
+        note = note.format(**values)
     elif sc.render.engine == "CYCLES":
-        note = ("Cycles renders the OSL shader. With Open Shading Language off it renders the node group instead "
-                "(the same image where nothing linked is too large for it), and every shader of the scene "
-                "renders faster.")
+        note = iface_("Cycles renders the OSL shader. With Open Shading Language off it renders the node group "
+                      "instead (the same image where nothing linked is too large for it), and every shader of the "
+                      "scene renders faster.")
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
-        note = "EEVEE renders the node group: anisotropic lobes are shown isotropic."
+        note = iface_("EEVEE renders the node group: anisotropic lobes are shown isotropic.")
         if s.node_tables:
-            note += f" It reads its linked inputs from tables over their range: {s.node_tables} (values outside are clamped)."
+            note += " " + iface_("It reads its linked inputs from tables over their range: {tables} (values outside "
+                                 "are clamped).").format(tables=s.node_tables)
     elif sc.render.engine != "CYCLES":
-        note, fix = "Cycles or EEVEE render this material; this engine shows its other output.", True
+        note, fix = iface_("Cycles or EEVEE render this material; this engine shows its other output."), True
     if note:
         col = box.column()
         _wrapped(col, note, "INFO")
@@ -135,7 +143,8 @@ def draw_layers(layout, mat) -> None:
         draw(sub)
     base = layout.row()
     kind = BASE_KINDS[s.base.kind]
-    base.label(text=f"Base: {_kind_label(kind)}", icon=kind_layer_icon(kind, s.base.settings()))
+    base.label(text=iface_("Base: {kind}").format(kind=iface_(_kind_label(kind))),
+               icon=kind_layer_icon(kind, s.base.settings()), translate=False)
 
 
 def _kind_label(kind) -> str:
@@ -175,7 +184,10 @@ def _draw_field(col, kind, pg, f, enabled_fields) -> None:
         sub.enabled = False
     if f.type == ROUGHNESS:
         aniso = getattr(pg, f"{f.name}_anisotropic")
-        sub.prop(pg, f.name, text=f"{f.ui_label} X" if aniso else f.ui_label)
+        if aniso:
+            sub.prop(pg, f.name, text=iface_("{label} X").format(label=iface_(f.ui_label)), translate=False)
+        else:
+            sub.prop(pg, f.name, text=f.ui_label)
         if aniso:
             sub.prop(pg, f"{f.name}_y")
         sub.prop(pg, f"{f.name}_anisotropic")
@@ -190,7 +202,7 @@ def draw_active_layer(layout, mat) -> None:
     s = mat.lamella
     item = s.active_layer()
     header, body = layout.panel("lamella_layer", default_closed=False)
-    header.label(text=f"Layer: {item.name}" if item else "Layer")
+    header.label(text=iface_("Layer: {name}").format(name=item.name) if item else iface_("Layer"), translate=False)
     if body is None:
         return
     if item is None:
@@ -207,7 +219,7 @@ def draw_base(layout, mat) -> None:
     b = mat.lamella.base
     header, body = layout.panel("lamella_base", default_closed=False)
     kind = BASE_KINDS[b.kind]
-    header.label(text=f"Base: {_kind_label(kind)}")
+    header.label(text=iface_("Base: {kind}").format(kind=iface_(_kind_label(kind))), translate=False)
     if body is None:
         return
     body.row().prop(b, "kind", expand=True)
@@ -220,7 +232,8 @@ def draw_base(layout, mat) -> None:
 def draw_model(layout, mat) -> None:
     s = mat.lamella
     header, body = layout.panel("lamella_model", default_closed=True)
-    header.label(text=f"Model: {s.picked_model or s.model}" + (" (auto)" if s.model == "auto" else ""))
+    header.label(text=(iface_("Model: {model} (auto)") if s.model == "auto" else iface_("Model: {model}")).format(
+        model=s.picked_model or s.model), translate=False)
     if body is None:
         return
     col = body.column()
@@ -228,16 +241,18 @@ def draw_model(layout, mat) -> None:
     col.use_property_decorate = False
     col.prop(s, "model")
     if s.model == "auto" and s.picked_model:
-        col.label(text=f"Auto picked {s.picked_model}", icon="INFO")
+        col.label(text=iface_("Auto picked {model}").format(model=s.picked_model), icon="INFO", translate=False)
     col.prop(s, "lobe_budget")
     if s.lobes_all:
-        col.label(text=f"{s.closures} closures for {s.lobes_all} lobes", icon="SHADING_RENDERED")
+        col.label(text=iface_("{closures} closures for {lobes} lobes").format(closures=s.closures, lobes=s.lobes_all),
+                  icon="SHADING_RENDERED", translate=False)
         from ..core.backends.lobe_budget import MAX_CLOSURES
 
         if s.closures > MAX_CLOSURES:  # only lobes that cannot merge (of different kinds) pass the cap
-            _wrapped(col, f"Cycles with OSL draws about {MAX_CLOSURES + 1} closures per point and drops the "
-                          "rest: unlink an input, or render with OSL off or in EEVEE.", "ERROR")
-    col.label(text=f"Live: {s.live_params}" if s.live_params else "Live: nothing (every value baked)",
+            _wrapped(col, iface_("Cycles with OSL draws about {n} closures per point and drops the rest: unlink an "
+                                 "input, or render with OSL off or in EEVEE.").format(n=MAX_CLOSURES + 1), "ERROR")
+    col.label(text=iface_("Live: {params}").format(params=s.live_params) if s.live_params
+              else iface_("Live: nothing (every value baked)"), translate=False,
               icon="LINKED" if s.live_params else "UNLINKED")
     body.operator("lamella.recompile", icon="FILE_REFRESH")
 
@@ -263,10 +278,11 @@ def draw_inspector(layout, mat) -> None:
     for lobe in s.lobes:
         grid.label(text=lobe.kind)
         grid.prop(lobe, "weight", text="")
-        grid.label(text=f"{lobe.roughness:.3f}")
-        grid.label(text=f"{lobe.anisotropy:+.2f}")
+        grid.label(text="{:.3f}".format(lobe.roughness), translate=False)
+        grid.label(text="{:+.2f}".format(lobe.anisotropy), translate=False)
     energy = [sum(lobe.weight[c] for lobe in s.lobes) for c in range(3)]
-    body.label(text="Total energy: " + ", ".join(f"{e:.3f}" for e in energy))
+    body.label(text=iface_("Total energy: {energy}").format(energy=", ".join("{:.3f}".format(e) for e in energy)),
+               translate=False)
 
 
 def draw_material(layout, context, mat) -> None:
@@ -282,7 +298,8 @@ def draw_material(layout, context, mat) -> None:
         row.operator("lamella.material_new", icon="ADD")
         return
     if mat.library is not None:
-        layout.label(text=f"Linked from {mat.library.filepath}: read only", icon="LINKED")
+        layout.label(text=iface_("Linked from {path}: read only").format(path=mat.library.filepath), icon="LINKED",
+                     translate=False)
         layout.enabled = False
     draw_status(layout, context, mat)
     draw_presets(layout, mat)
@@ -336,7 +353,8 @@ class LAMELLA_MT_presets(bpy.types.Menu):
         from .paths import user_presets_dir
 
         for path, why in scan_user(user_presets_dir())[1]:
-            layout.label(text=f"Skipped {path.name}: {why}"[:120], icon="ERROR")
+            layout.label(text=iface_("Skipped {file}: {why}").format(file=path.name, why=why)[:120], icon="ERROR",
+                         translate=False)
 
 
 class LAMELLA_MT_stack_files(bpy.types.Menu):
