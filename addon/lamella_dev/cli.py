@@ -206,6 +206,10 @@ def cmd_bench(a) -> int:
             print(pareto.rewrite(out, quick=a.quick).read_text())
         else:
             print(pareto.run(out, quick=a.quick, cases=a.cases.split(",") if a.cases else None).read_text())
+    elif a.what == "materialx":
+        from .bench import materialx
+
+        print(materialx.run(BENCH_DIR).read_text())
     elif a.what == "images":
         from .bench import images
 
@@ -244,6 +248,34 @@ def cmd_export_osl(a) -> int:
     print(f"wrote {shader} ({len(shader.read_text().splitlines())} lines; view target {a.target}; {lut_note})")
     for f in files[1:]:
         print(f"wrote {f}")
+    return 0
+
+
+def cmd_export_mtlx(a) -> int:
+    """Write a stack as a MaterialX document: nested layers of standard closures, or with
+    ``--openpbr`` one OpenPBR Surface (stacks of at most one coat); print what the export
+    approximated or dropped (docs/materialx.md). Without ``-o`` the document goes to stdout and
+    the warnings to stderr."""
+    from lamella.core.backends.materialx import MaterialXUnsupported, layered_document, open_pbr_document
+
+    stack = _load_stack(a.stack)
+    try:
+        export = open_pbr_document(stack) if a.openpbr else layered_document(stack)
+    except MaterialXUnsupported as e:
+        raise _fail(f"export-mtlx: {e}") from None
+    note = sys.stdout
+    if a.out:
+        out = Path(a.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(export.text, encoding="utf-8")
+        print(f"wrote {out} (material {export.material!r}, {'OpenPBR Surface' if a.openpbr else 'MaterialX layers'})")
+    else:
+        sys.stdout.write(export.text)
+        note = sys.stderr
+    if export.warnings:
+        print(f"{len(export.warnings)} approximated or dropped:", file=note)
+        for w in export.warnings:
+            print(f"  {w}", file=note)
     return 0
 
 
@@ -399,7 +431,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks")
     p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "holdout", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
-                                       "trapping", "lobe-floor", "pareto"])
+                                       "trapping", "lobe-floor", "pareto", "materialx"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
@@ -435,6 +467,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "every parameter; the others are baked into the shader's table (default: none)")
     p.add_argument("--budget", default="auto", help="lobe budget: auto (default), all, or 1 to 8 closures")
     p.set_defaults(fn=cmd_export_osl)
+
+    p = sub.add_parser("export-mtlx", help="write a stack as a MaterialX document (nested layers of standard "
+                                           "closures, or OpenPBR Surface) and print what it could not express")
+    p.add_argument("stack", help="stack JSON file, suite case or example name")
+    p.add_argument("-o", "--out", help="the .mtlx file to write (default: the document to stdout)")
+    p.add_argument("--openpbr", action="store_true",
+                   help="one open_pbr_surface instead of nested layers (stacks of at most one coat)")
+    p.set_defaults(fn=cmd_export_mtlx)
 
     p = sub.add_parser("apply", help="make a material of a .blend show a stack and save the file (pipelines)")
     p.add_argument("stack", help="stack JSON file, suite case or example name")
