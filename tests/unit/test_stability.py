@@ -113,6 +113,10 @@ EXTREMES = [
      "base": {"type": "conductor", "eta": [0.05, 0.05, 0.05], "k": [0.0, 1e-6, 50.0], "roughness": [0.0, 1.0]}},
     {"layers": [{"ior": 4.0, "roughness": 0.0}, {"ior": 0.25, "roughness": 1e-7}, {"ior": 4.0, "roughness": 1.0}],
      "base": {"type": "conductor", "eta": [6.0, 6.0, 6.0], "k": [0.0, 0.0, 0.0], "roughness": 0.0}},
+    # light at grazing refracted to the base's critical angle, trapped under the coat (found by
+    # hypothesis: the transfer-matrix models returned 1.0000055 in float32)
+    {"layers": [{"ior": 2.0, "roughness": 0.001}],
+     "base": {"type": "conductor", "eta": [1.0, 1.0, 1.0], "k": [0.0, 0.0, 0.0], "roughness": 0.0}},
 ]
 
 

@@ -97,8 +97,9 @@ def _diag(value, n: int) -> dict:
     return {(k, k): value for k in range(n)}
 
 
-def _inv_i_minus(ops, a: dict, n: int) -> dict:
-    """(I - a)^-1 for a block lower-triangular family matrix (no entry (P, F) or (P, B))."""
+def _inv_i_minus(ops, a: dict, n: int, floor: RGB | None = None) -> dict:
+    """(I - a)^-1 for a block lower-triangular family matrix (no entry (P, F) or (P, B)).
+    ``floor``: a lower bound of 1 - a[P, P] that energy conservation guarantees (``_stack``)."""
     if any(i == P and j != P for i, j in a):
         raise AssertionError("family matrices never feed the primary flux from a secondary one")
 
@@ -107,7 +108,11 @@ def _inv_i_minus(ops, a: dict, n: int) -> dict:
 
     one = RGB.splat(1.0)
     out: dict = {}
-    inv_p = one / guard(one - a[(P, P)]) if (P, P) in a else one
+    if (P, P) in a:
+        d = one - a[(P, P)]
+        inv_p = one / guard(d if floor is None else d.zip(floor, ops.max))
+    else:
+        inv_p = one
     out[(P, P)] = inv_p
     if n == 1:
         return out
@@ -142,8 +147,17 @@ class Component:
 def _stack(ops, s: Component, c: Component, n: int) -> Component:
     """The partial stack ``s`` with component ``c`` added below it (the adding form of the
     transfer-matrix product)."""
-    down = _inv_i_minus(ops, _mul(s.rb, c.rt), n)  # bounces seen by light going down into c
-    up = _inv_i_minus(ops, _mul(c.rt, s.rb), n)  # ... and by light going up into s
+    # The primary family's round trips between s and c: 1 - Rc Rs with Rs = s.rb, Rc = c.rt. Light
+    # reaching s from below is reflected or crosses it (Rs + Ts <= 1, Ts = s.tu), so 1 - Rc Rs >=
+    # (1 - Rc) + Rc Ts. Rounding breaks that when the stack above traps nearly everything (Ts small
+    # against 1 - Rs's rounding: a coat of ior 2 over a base at its critical angle at grazing
+    # returned 1.0000055 in float32); bounded there, what comes back up never exceeds what went in.
+    floor = None
+    if (P, P) in c.rt and (P, P) in s.rb and (P, P) in s.tu:
+        rc = c.rt[(P, P)]
+        floor = (1.0 - rc) + rc * s.tu[(P, P)]
+    down = _inv_i_minus(ops, _mul(s.rb, c.rt), n, floor)  # bounces seen by light going down into c
+    up = _inv_i_minus(ops, _mul(c.rt, s.rb), n, floor)  # ... and by light going up into s
     return Component(
         rt=_add(s.rt, _mul(s.tu, _mul(up, _mul(c.rt, s.td)))),
         td=_mul(c.td, _mul(down, s.td)),
