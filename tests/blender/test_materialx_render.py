@@ -13,7 +13,8 @@ pytest.importorskip("bpy")
 pytest.importorskip("MaterialX")
 from lamella.core.backends.materialx import layered_document, open_pbr_document  # noqa: E402
 from lamella_dev import materialx_check  # noqa: E402
-from lamella_dev.bench.materialx import _figures, sphere_pixels  # noqa: E402
+from lamella_dev.bench.image_references import sphere_pixels  # noqa: E402
+from lamella_dev.bench.materialx import _figures  # noqa: E402
 from lamella_dev.render import build_scene, render_scene, render_stack  # noqa: E402
 
 RES, SPP = 64, 16

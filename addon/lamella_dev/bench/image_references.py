@@ -26,10 +26,23 @@ RES = 128
 SPP = 2048
 
 
+def sphere_pixels(res: int) -> np.ndarray:
+    """Pixels of the canonical orthographic view (``render.build_scene``: a unit sphere, ortho
+    scale 2.2; top row first) whose centre lies inside the sphere, away from its silhouette."""
+    u = (np.arange(res) + 0.5) / res * 2.2 - 1.1
+    x, z = np.meshgrid(u, -u)
+    return x * x + z * z < 0.97
+
+
 def sphere_mask(rgba: np.ndarray) -> np.ndarray:
-    """Pixels fully covered by the sphere (alpha of the reference = 1): image metrics are taken
-    there, so the background (the same HDRI in every render) does not dilute them."""
-    return rgba[..., 3] > 0.999
+    """The pixels of a canonical render (``rgba``, square, top row first) the sphere covers:
+    image metrics are taken there, so the background (the same HDRI in every render) does not
+    dilute them. Geometric: the renders' alpha is 1 everywhere (the world is rendered, not a
+    transparent film), so it cannot tell the sphere from the background."""
+    h, w = rgba.shape[:2]
+    if h != w:
+        raise ValueError(f"a canonical render is square, got {w}x{h}")
+    return sphere_pixels(h)
 
 
 def load_index(out_dir: Path = IMAGE_REFERENCE_DIR) -> dict:

@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import suite
 from . import BENCH_DIR, REPO
+from .image_references import sphere_pixels
 
 RES, SPP = 128, 64  # as bench/images.md, whose references these are
 CASES = ("gold_coated", "varnished_wood", "tinted_varnish", "coat_over_brushed", "rotated_30", "three_coats",
@@ -56,14 +57,6 @@ def controls() -> dict:
         out[f"{name}_base_only"] = Stack.from_dict({"name": f"{name}_base_only", "layers": [],
                                                     "base": s.base.kind.to_dict(s.base)})
     return out
-
-
-def sphere_pixels(res: int) -> np.ndarray:
-    """Pixels of the canonical orthographic view (top row first) whose centre is inside the
-    sphere, away from its silhouette."""
-    u = (np.arange(res) + 0.5) / res * 2.2 - 1.1  # ortho_scale 2.2
-    x, z = np.meshgrid(u, -u)
-    return x * x + z * z < 0.97
 
 
 def every_stack() -> dict:
