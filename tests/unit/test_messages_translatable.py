@@ -21,11 +21,14 @@ def _names(node) -> set[str]:
     return {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
 
 
+def _is_text(node) -> bool:
+    return isinstance(node, ast.JoinedStr) or (isinstance(node, ast.Constant) and isinstance(node.value, str))
+
+
 def _built_in_code(node) -> bool:
-    """An f-string or a + of strings: English put together in code, untranslatable."""
-    return any(isinstance(n, (ast.JoinedStr, ast.BinOp)) and not (isinstance(n, ast.BinOp) and
-               not any(isinstance(x, (ast.Constant, ast.JoinedStr)) and isinstance(getattr(x, "value", ""), str)
-                       for x in (n.left, n.right)))
+    """An f-string, or a + with a string literal: English put together in code, untranslatable."""
+    return any(isinstance(n, ast.JoinedStr)
+               or (isinstance(n, ast.BinOp) and isinstance(n.op, ast.Add) and (_is_text(n.left) or _is_text(n.right)))
                for n in ast.walk(node))
 
 

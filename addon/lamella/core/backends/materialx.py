@@ -62,13 +62,16 @@ What MaterialX cannot express (dropped, and reported):
 """
 from __future__ import annotations
 
-import cmath
 import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
+from ..models import fresnel
 from ..stack import Stack
+from .numpy_ops import NumpyOps
+
+_OPS = NumpyOps()  # float64, for the few values the export computes
 
 MATERIALX_VERSION = "1.39"
 COLORSPACE = "lin_rec709"  # Lamella's RGB triples are linear Rec.709 (Blender's scene linear)
@@ -192,19 +195,14 @@ def _round_trip(coat) -> tuple[float, float, float]:
 
 
 def _fresnel_conductor(mu: float, eta: float, k: float) -> float:
-    """Unpolarised Fresnel reflectance of a conductor of relative complex index eta + i k at
-    incidence cosine ``mu`` (exact, from the complex Snell law)."""
-    n = complex(eta, k)
-    sin2 = 1.0 - mu * mu
-    cos_t = cmath.sqrt(1.0 - sin2 / (n * n))
-    rs = (mu - n * cos_t) / (mu + n * cos_t)
-    rp = (n * mu - cos_t) / (n * mu + cos_t)
-    return 0.5 * (abs(rs) ** 2 + abs(rp) ** 2)
+    """Unpolarised Fresnel reflectance of relative complex index eta + i k at incidence cosine
+    ``mu``: the models' own (``models.fresnel``), evaluated in float64."""
+    return float(fresnel.fresnel_conductor(_OPS, mu, eta, k))
 
 
 def _fresnel_dielectric(mu: float, eta: float) -> float:
     """Unpolarised Fresnel reflectance at incidence cosine ``mu`` into relative index ``eta``."""
-    return _fresnel_conductor(mu, eta, 0.0)
+    return float(fresnel.fresnel_dielectric(_OPS, mu, eta))
 
 
 def _hemispherical_fresnel(eta: float, steps: int = 512) -> float:

@@ -58,12 +58,12 @@ def register(op: TracedOp) -> TracedOp:
 
 def unregister(name: str) -> None:
     """Remove a registered operation (an extension's) from the table and both backends."""
-    from .numpy_ops import NumpyOps
-    from .trace import Tracer
+    from . import numpy_ops, trace
 
     if OPS.pop(name, None) is not None:
-        delattr(NumpyOps, name)
-        delattr(Tracer, name)
+        delattr(numpy_ops.NumpyOps, name)
+        delattr(trace.Tracer, name)
+        trace._FOLD.pop(name, None)
 
 
 def _math_node(operation: str) -> Callable:
