@@ -2,7 +2,8 @@
 
 This module only registers and unregisters; everything else is imported when used. The batch API
 of the extension (``bl_ext.<repo>.lamella``): ``apply_stack(material, stack)`` and
-``read_stack(material)``, with ``StackError`` for bad input.
+``read_stack(material)``, ``input_socket(material, layer, field)``, with ``StackError`` for bad
+input.
 """
 
 
@@ -31,6 +32,14 @@ def read_stack(material):
     from .addon.lamella.blender.api import read_stack as _read
 
     return _read(material)
+
+
+def input_socket(material, layer, field):
+    """The input of ``material``'s Lamella node for ``field`` of ``layer`` (a coat's index, 0 = top,
+    or "base"): where a script links a texture. It stays that layer's through other layers' edits."""
+    from .addon.lamella.blender.api import input_socket as _input
+
+    return _input(material, layer, field)
 
 
 def __getattr__(name):

@@ -57,9 +57,22 @@ def read_stack(material) -> dict | None:
         return d
 
 
+def input_socket(material, layer, field: str):
+    """The input of ``material``'s Lamella node that a script links a texture into: ``layer`` is a
+    coat's index (0 = top) or "base", ``field`` a field of that layer's kind as the stack names it
+    (``"roughness"``, ``"ior"``, ``"sigma_a"``; ``"roughness_y"`` across the tangent of an
+    anisotropic roughness). The socket speaks the panel's units (roughness as Blender's r). It
+    stays the layer's through edits of other layers. Raises KeyError naming what exists."""
+    from .material_nodes import input_socket as find
+
+    if not getattr(material, "lamella", None) or not material.lamella.enabled:
+        raise KeyError(f"material {material.name!r} is not a Lamella material")
+    return find(material, layer, field)
+
+
 def read_stack_json(material, indent: int | None = 2) -> str | None:
     d = read_stack(material)
     return None if d is None else json.dumps(d, indent=indent)
 
 
-__all__ = ["apply_stack", "read_stack", "read_stack_json", "StackError"]
+__all__ = ["apply_stack", "read_stack", "read_stack_json", "input_socket", "StackError"]

@@ -1,70 +1,123 @@
-"""The nodes Lamella owns in a material, and nothing else.
+"""The nodes Lamella owns in a material, and nothing else: the face (``face``) and what is inside it.
 
-A Lamella material has a Script node running the generated OSL shader (INTERNAL text, so the
-shader travels with the .blend), the node group of the same model (``node_group``) and a Tangent
-node (radial about the object's z, switchable to a UV map by the user) feeding both. A Material
-Output whose target is Cycles shows the Script node where Cycles can run OSL (Open Shading
-Language on, CPU device or OptiX) and the node group otherwise (``wire_cycles``); a Material
-Output whose target is EEVEE shows the node group. Blender renders with the output whose target
-matches the engine in preference to an "All" output, so the user's own nodes, and their output,
-stay in the material untouched.
+A Lamella material shows one group node, the face (``face.FACE``), whose group holds the OSL
+shader (a Script node running the generated source, an INTERNAL text, its bytecode stored with the
+node, so it travels with the .blend), the node group of the same model (``node_group``) and the
+engine switch between them (``face``). The material renders through its active output for every
+engine, as a Principled material does; nothing Lamella makes takes precedence over the artist's
+nodes.
 
-The nodes are found by name; a recompile reuses them, so textures linked into the Script node's
-parameter sockets stay linked (a socket is kept while its parameter keeps its name and type).
+Everything a render reads is inside the .blend: the shader's tables are constants in its source,
+the node group's material table is a packed image, and where a textured material's node group
+reads the package's look-up tables those images are packed too. A staged shader that would read
+a table file (a linked input whose part of the model reaches one) is left out: such a material
+renders its node group in every engine.
+
+Each material owns its face group, node group, shader text and table image: a material copied
+or duplicated shares them until it is compiled, and then gets its own copies (a group or text with
+more than one user is copied; a table image belongs to the node group whose name it records), so
+the original is never changed by the copy's edits.
 """
 from __future__ import annotations
 
 import hashlib
 
-SCRIPT = "Lamella Shader"
-OUTPUT = "Lamella Output"
-TANGENT = "Lamella Tangent"
-GROUP = "Lamella Nodes"
-EEVEE_OUTPUT = "Lamella EEVEE Output"
-OWNED = (SCRIPT, OUTPUT, TANGENT, GROUP, EEVEE_OUTPUT)
-STRUCTURE_KEY = "lamella_structure"  # custom property of a group: the structure it was built for
-TABLE_KEY = "lamella_table"  # custom property of a group: the name of the table image it reads
+from . import face
+
+STRUCTURE_KEY = "lamella_structure"  # custom property of a node group: the structure it was built for
+TABLE_KEY = "lamella_table"  # custom property of a node group: the name of its material table image
+NODES_KEY = "lamella_nodes"  # custom property of a table image: the name of the node group it belongs to
+# the nodes earlier versions put into the material itself (migrated by ``migrate_layout``)
+OLD_SCRIPT, OLD_OUTPUT, OLD_TANGENT, OLD_GROUP, OLD_EEVEE_OUTPUT = (
+    "Lamella Shader", "Lamella Output", "Lamella Tangent", "Lamella Nodes", "Lamella EEVEE Output")
+SCRIPT, GROUP = face.SCRIPT, face.GROUP
 
 
-def _place(nt):
-    """A spot right of the material's existing nodes."""
-    xs = [n.location.x + n.width for n in nt.nodes if n.name not in OWNED]
-    ys = [n.location.y for n in nt.nodes if n.name not in OWNED]
-    return (max(xs) + 200.0 if xs else 0.0), (min(ys) - 400.0 if ys else 0.0)
+def _is_face_tree(tree) -> bool:
+    return tree is not None and face.FACE_KEY in tree
 
 
-def _new_owned(nt, bl_idname: str, name: str, label: str, location, **props):
-    """A node Lamella owns: found again by ``name``."""
-    node = nt.nodes.new(bl_idname)
-    node.name, node.label, node.location = name, label, location
-    for key, value in props.items():
-        setattr(node, key, value)
-    return node
+def face_node(mat):
+    """``mat``'s face node (by name, else the first group node of a face group), or None."""
+    nt = mat.node_tree
+    if nt is None:
+        return None
+    node = nt.nodes.get(face.FACE)
+    if node is not None and node.bl_idname == "ShaderNodeGroup" and _is_face_tree(node.node_tree):
+        return node
+    return next((n for n in nt.nodes if n.bl_idname == "ShaderNodeGroup" and _is_face_tree(n.node_tree)), None)
+
+
+def inner_nodes(mat):
+    """(face node, Script node, node group's node) of ``mat``, each None where absent."""
+    node = face_node(mat)
+    tree = node.node_tree if node is not None else None
+    if tree is None:
+        return node, None, None
+    return node, tree.nodes.get(SCRIPT), tree.nodes.get(GROUP)
 
 
 def lamella_nodes(mat):
-    """(script, output, tangent) nodes of ``mat``, each None where absent."""
+    """Every node Lamella made in ``mat``'s own tree (the face; an earlier version's nodes)."""
     nt = mat.node_tree
     if nt is None:
-        return None, None, None
-    return nt.nodes.get(SCRIPT), nt.nodes.get(OUTPUT), nt.nodes.get(TANGENT)
+        return []
+    old = (OLD_SCRIPT, OLD_OUTPUT, OLD_TANGENT, OLD_GROUP, OLD_EEVEE_OUTPUT)
+    return [n for n in nt.nodes if n.name in old or (n.bl_idname == "ShaderNodeGroup" and _is_face_tree(n.node_tree))]
 
 
-def ensure_nodes(mat):
-    """The Script, output and tangent nodes, created (and linked) where missing."""
+def _shared(datablock) -> bool:
+    """Whether a group Lamella made for one material is another's too (a copied material's) or
+    linked from a library: it must be copied before it is changed."""
+    return datablock.library is not None or datablock.users - int(datablock.use_fake_user) > 1
+
+
+def _output(nt):
+    """The output a new face is linked into: the active output for every engine, or a new one."""
+    out = nt.get_output_node("ALL") if hasattr(nt, "get_output_node") else None
+    if out is None:
+        out = next((n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target == "ALL"), None)
+    if out is None:
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        out.target = "ALL"
+        out.is_active_output = True
+    return out
+
+
+def ensure_face(mat):
+    """(face node, face group) of ``mat``, made where missing (linked into the material's output,
+    in place of what it showed: the surface the artist asked Lamella for) and made ``mat``'s own
+    where it is shared with another material or linked from a library."""
+    import bpy
+
     if mat.node_tree is None:
         mat.use_nodes = True
     nt = mat.node_tree
-    script, output, tangent = lamella_nodes(mat)
-    if script is None or output is None or tangent is None:
-        x, y = _place(nt)
-    if tangent is None:
-        tangent = _new_owned(nt, "ShaderNodeTangent", TANGENT, TANGENT, (x, y), direction_type="RADIAL", axis="Z")
-    if script is None:
-        script = _new_owned(nt, "ShaderNodeScript", SCRIPT, "Lamella", (x + 200.0, y), width=240.0)
-    if output is None:
-        output = _new_owned(nt, "ShaderNodeOutputMaterial", OUTPUT, OUTPUT, (x + 520.0, y), target="CYCLES")
-    return script, output, tangent
+    migrate_layout(mat)
+    node = face_node(mat)
+    if node is None:
+        xs = [n.location.x for n in nt.nodes]
+        ys = [n.location.y for n in nt.nodes]
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.name = node.label = face.FACE
+        node.width = 260.0
+        out = _output(nt)
+        node.location = (out.location.x - 320.0, out.location.y) if xs else (0.0, 0.0)
+        if not xs or not ys:
+            out.location = (320.0, 0.0)
+    tree = node.node_tree
+    if tree is None:
+        tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
+        tree[face.FACE_KEY] = face.FACE_LAYOUT
+        node.node_tree = tree
+        out = _output(nt)
+        face.sync_interface(tree, [])
+        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    elif _shared(tree):  # a copied or linked material's: its own from now on
+        tree = tree.copy()
+        tree.name = f"Lamella {mat.name}"
+        node.node_tree = tree
+    return node, tree
 
 
 TEXT_MARK = "lamella_shader"  # custom property of the Text datablocks Lamella writes shaders into
@@ -111,11 +164,11 @@ def drop_unused_data() -> int:
 
     from .node_group import CHUNK_PREFIX, SECTION_PREFIX
 
-    own = (CHUNK_PREFIX, SECTION_PREFIX, "Lamella ")
+    own = (CHUNK_PREFIX, SECTION_PREFIX, ".lamella_nodes", "Lamella ")
     gone = drop_unused_texts()
     while True:  # a group removed frees the nested groups it used
-        groups = [g for g in bpy.data.node_groups if g.library is None and g.users == 0
-                  and g.name.startswith(own) and (not g.name.startswith("Lamella ") or STRUCTURE_KEY in g)]
+        groups = [g for g in bpy.data.node_groups if g.library is None and g.users == 0 and g.name.startswith(own)
+                  and (not g.name.startswith("Lamella ") or STRUCTURE_KEY in g or face.FACE_KEY in g)]
         if not groups:
             break
         for g in groups:
@@ -127,54 +180,75 @@ def drop_unused_data() -> int:
     return gone + len(images)
 
 
-NOT_PARAMS = ("Normal", "Tangent", "lut_dir")  # sockets of the Script node and group that are no model parameter
-
-
 def linked_sockets(mat) -> tuple:
-    """The sockets linked in ``mat`` (on the Script node or the node group), sorted: a staged
-    shader reads their parameters live and bakes every other value."""
-    nt = mat.node_tree
-    if nt is None:
+    """The model sockets whose face inputs are linked in ``mat``, sorted: a staged shader reads
+    their parameters live and bakes every other value."""
+    node = face_node(mat)
+    if node is None or node.node_tree is None:
         return ()
-    linked = set()
-    for name in (SCRIPT, GROUP):
-        node = nt.nodes.get(name)
-        if node is not None:
-            linked |= {s.name for s in node.inputs if s.is_linked and s.name not in NOT_PARAMS}
-    return tuple(sorted(linked))
+    return face.linked_models(node, face.face_inputs(mat.lamella))
 
 
-def install_shader(mat, shader, oso_path, lut_dir: str) -> None:
-    """Put the compiled shader (``OslShader``) into ``mat``: the Script node runs it, its parameter
-    sockets take the shader's values (the stack's values: existing sockets keep their links but
-    get the new value), its output and tangent are linked."""
+def input_socket(mat, layer, field: str):
+    """The face input of ``layer`` (a coat's index, 0 = top, or "base") and ``field`` (a stack
+    field name, or ``<roughness field>_y`` for an anisotropic roughness across the tangent)."""
+    settings = mat.lamella
+    if layer == "base":
+        uid = face.BASE_UID
+    elif isinstance(layer, int) and not isinstance(layer, bool) and 0 <= layer < len(settings.coats):
+        uid = settings.coats[layer].uid
+    else:
+        raise KeyError(f"layer {layer!r}: expected a coat index from 0 to {len(settings.coats) - 1} or 'base'")
+    node = face_node(mat)
+    sock = face.node_socket(node, f"{uid}/{field}") if node is not None else None
+    if sock is None:
+        known = sorted(i.key.split("/", 1)[1] for i in face.face_inputs(settings) if i.key.startswith(f"{uid}/"))
+        raise KeyError(f"layer {layer!r} has no input {field!r} (it has: {', '.join(known)})")
+    return sock
+
+
+def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) -> bool | None:
+    """Put a compiled shader (``OslShader`` compiled to ``oso_path``) and the node group of the
+    same staging into ``mat``'s face, and wire the face's inputs to both. The Script node is left
+    out where the shader reads table files (it would not render elsewhere). With ``build_group``
+    False a structure change leaves the node group as it is (``install_group``). Returns whether the
+    node group was rebuilt, None when it was left out of date."""
     from .osl_compile import assign_compiled
 
-    script, output, tangent = ensure_nodes(mat)
-    text = shader_text(mat, script)
-    assign_compiled(script, text, shader.source, oso_path, shader.socket_values)
-    text[SOURCE_KEY] = source_digest(shader.source)
-    if "lut_dir" in script.inputs:  # internal (the installation's tables): set, and hidden from the artist
-        script.inputs["lut_dir"].default_value = lut_dir
-        script.inputs["lut_dir"].hide = True
-    nt = mat.node_tree
-    if not output.inputs["Surface"].is_linked:
-        nt.links.new(script.outputs["BSDF"], output.inputs["Surface"])
-    if "Tangent" in script.inputs and not script.inputs["Tangent"].is_linked:
-        nt.links.new(tangent.outputs["Tangent"], script.inputs["Tangent"])
+    node, tree = ensure_face(mat)
+    inputs = face.face_inputs(mat.lamella)
+    face.sync_interface(tree, inputs)
+    face.set_node_values(node, inputs)
+    script = tree.nodes.get(SCRIPT)
+    if shader.tables:
+        if script is not None:
+            tree.nodes.remove(script)
+            script = None
+    else:
+        if script is None:
+            script = tree.nodes.new("ShaderNodeScript")
+            script.name, script.label, script.width = SCRIPT, "Lamella (OSL)", 240.0
+        text = shader_text(mat, script)
+        assign_compiled(script, text, shader.source, oso_path, shader.socket_values)
+        text[SOURCE_KEY] = source_digest(shader.source)
+    group = tree.nodes.get(GROUP)
+    if group is None:
+        group = tree.nodes.new("ShaderNodeGroup")
+        group.name, group.label, group.width = GROUP, "Lamella (nodes)", 240.0
+    rebuilt = install_group(mat, group, stack, model, shader, build=build_group or script is None)
+    face.wire(tree, inputs, script, group if group.node_tree is not None else None)
+    return rebuilt
 
 
-def refresh_lut_dir(mat, lut_dir: str) -> bool:
-    """Point an existing shader at this installation's tables (a .blend made on another machine).
-    Returns whether anything changed."""
-    script, _, _ = lamella_nodes(mat)
-    if script is None or "lut_dir" not in script.inputs:
-        return False
-    sock = script.inputs["lut_dir"]
-    if sock.default_value == lut_dir:
-        return False
-    sock.default_value = lut_dir
-    return True
+def build_group(mat, stack, model: str, live_budget) -> bool | None:
+    """Build the node group a deferred compile left out of date (``install``'s ``build_group``
+    False), from the stack and live parameters the material's shader shows, and wire it."""
+    node, script, group = inner_nodes(mat)
+    if node is None or group is None:
+        return None
+    rebuilt = install_group(mat, group, stack, model, live_budget)
+    face.wire(node.node_tree, face.face_inputs(mat.lamella), script, group)
+    return rebuilt
 
 
 def osl_usable(scene) -> bool:
@@ -191,19 +265,6 @@ def osl_usable(scene) -> bool:
     return prefs is not None and getattr(prefs.preferences, "compute_device_type", "") == "OPTIX"
 
 
-def ensure_group_nodes(mat):
-    """(group node, EEVEE output), created where missing; the group node's tree is set later."""
-    nt = mat.node_tree
-    node, out = nt.nodes.get(GROUP), nt.nodes.get(EEVEE_OUTPUT)
-    script = nt.nodes.get(SCRIPT)
-    x, y = (script.location.x, script.location.y - 300.0) if script is not None else _place(nt)
-    if node is None:
-        node = _new_owned(nt, "ShaderNodeGroup", GROUP, "Lamella (nodes)", (x, y), width=240.0)
-    if out is None:
-        out = _new_owned(nt, "ShaderNodeOutputMaterial", EEVEE_OUTPUT, EEVEE_OUTPUT, (x + 320.0, y), target="EEVEE")
-    return node, out
-
-
 def group_needed(scene) -> bool:
     """Whether ``scene`` renders Lamella materials through the node group now: EEVEE, or Cycles
     where it cannot run OSL."""
@@ -214,18 +275,29 @@ def group_needed(scene) -> bool:
 TABLE_IMAGE_PREFIX = ".lamella_table "
 
 
-def table_image_name(mat) -> str:
-    return f"{TABLE_IMAGE_PREFIX}{mat.name}"
+def own_table_image(tree):
+    """The material table image of node group ``tree``: the one it names, if that image names the
+    group back (a copied or appended group, renamed, gets a new one)."""
+    import bpy
+
+    name = tree.get(TABLE_KEY)
+    img = bpy.data.images.get(name) if name else None
+    if img is None or img.library is not None or img.get(NODES_KEY) != tree.name:
+        img = bpy.data.images.new(f"{TABLE_IMAGE_PREFIX}{tree.name.lstrip('.')}"[:60], 1, 1, alpha=True,
+                                  float_buffer=True, is_data=True)
+        img[NODES_KEY] = tree.name
+        tree[TABLE_KEY] = img.name
+    return img
 
 
-def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | None:
-    """Give ``mat`` the node group of ``stack``, staged like ``shader`` (an ``OslShader``, or the
-    pair (live parameters, lobe budget)): rebuilt only when the structure changed (the staged
-    graph's structure key), and then only the nested groups whose content changed; a value edit
-    only rewrites the material table's image and the sockets' values, so links into them stay. A
-    group another material shares is copied first (copies stay independent). With ``build``
-    False the group is left as it is (the caller builds it later). Returns whether the group was
-    rebuilt, None when it was left out of date.""" 
+def install_group(mat, node, stack, model: str, shader, build: bool = True) -> bool | None:
+    """Give the face's node-group node ``node`` the node group of ``stack``, staged like ``shader``
+    (an ``OslShader``, or the pair (live parameters, lobe budget)): rebuilt only when the
+    structure changed (the staged graph's structure key, the table image's name included), and
+    then only the nested groups whose content changed; a value edit only rewrites the material
+    table's image and the sockets' values. A group another face shares (a copied material's) is
+    copied first. With ``build`` False the group is left as it is (the caller builds it later).
+    Returns whether the group was rebuilt, None when it was left out of date."""
     import bpy
 
     from ..core.backends.live_axes import socket_ranges
@@ -234,62 +306,76 @@ def install_group(mat, stack, model: str, shader, build: bool = True) -> bool | 
     from . import node_group
     from .osl_compile import set_socket
 
-    node, out = ensure_group_nodes(mat)
-    nt = mat.node_tree
     live, budget = (shader.live, mat.lamella.lobe_budget) if hasattr(shader, "live") else shader
     tree = node.node_tree
-    if tree is not None and tree.users > 1:  # shared with a copied material: make it this one's own
+    if tree is not None and _shared(tree):  # shared with a copied material: its own
         tree = tree.copy()
         node.node_tree = tree
     if not build:  # staged, even a value edit changes the group's table: all of it waits
         return None
+    if tree is None:
+        tree = bpy.data.node_groups.new(f".lamella_nodes {mat.name}"[:60], "ShaderNodeTree")
+    image = own_table_image(tree)
     staged = getattr(shader, "staged", None)  # the OSL shader's staging of this stack, when it has one
-    plan = emit_plan(stack, model, live=live, budget=budget, image=table_image_name(mat),
+    plan = emit_plan(stack, model, live=live, budget=budget, image=image.name,
                      staged_ir=staged if staged is not None and staged.stack == stack else None)
-    key = _layout_prefix() + (plan.staged.structure_key() if plan.staged is not None else "")
-    rebuilt = tree is None or tree.get(STRUCTURE_KEY) != key
+    key = _layout_prefix() + (plan.staged.structure_key() if plan.staged is not None else "") + "|" + image.name
+    rebuilt = node.node_tree is None or tree.get(STRUCTURE_KEY) != key
     if rebuilt:
-        if tree is None:
-            tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
         node_group.build_group(plan, tree.name, tree)
         tree[STRUCTURE_KEY] = key
-        tree[TABLE_KEY] = next(iter(plan.images), "")
         mat.lamella.node_live_values = live_values(plan)
         ranges = socket_ranges(plan.staged.axis_tables, plan.params) if plan.staged is not None else {}
         mat.lamella.node_tables = ", ".join(f"{name} {lo:.3g} to {hi:.3g}" for name, (lo, hi) in ranges.items())
         node.node_tree = tree
     else:
-        for image, pixels in plan.images.items():
-            node_group.material_table_image(image, pixels)
+        for name, pixels in plan.images.items():
+            node_group.material_table_image(name, pixels)
     for sk in sockets(plan.params):
         sock = node.inputs.get(sk.name)
         if sock is not None:
             set_socket(sock, sk.value)
-    tangent = nt.nodes.get(TANGENT)
-    if tangent is not None and "Tangent" in node.inputs and not node.inputs["Tangent"].is_linked:
-        nt.links.new(tangent.outputs["Tangent"], node.inputs["Tangent"])
-    if not node.outputs["BSDF"].is_linked or all(l.to_node != out for l in node.outputs["BSDF"].links):
-        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     return rebuilt
 
 
-def wire_cycles(mat, scene) -> bool:
-    """Show in the Cycles output the Script node where ``scene`` runs OSL, else the node group.
-    Returns whether a link changed."""
+def old_layout(mat) -> bool:
+    """Whether ``mat`` holds the nodes of an earlier version (``migrate_layout`` on its next
+    compile)."""
+    nt = mat.node_tree
+    return nt is not None and any(nt.nodes.get(n) is not None for n in (OLD_SCRIPT, OLD_OUTPUT, OLD_EEVEE_OUTPUT))
+
+
+def migrate_layout(mat) -> bool:
+    """Bring a material compiled by an earlier version (a Script node, a node group, a tangent and
+    two engine-specific outputs in the material itself) to the face: its nodes go, the links
+    artists made into their parameter sockets move to the face's inputs (by the layer each fed),
+    and the face is linked where the Cycles output's surface came from. Returns whether anything
+    changed."""
     nt = mat.node_tree
     if nt is None:
         return False
-    out, script, group = nt.nodes.get(OUTPUT), nt.nodes.get(SCRIPT), nt.nodes.get(GROUP)
-    if out is None:
+    old = [nt.nodes.get(n) for n in (OLD_SCRIPT, OLD_OUTPUT, OLD_TANGENT, OLD_GROUP, OLD_EEVEE_OUTPUT)]
+    old = [n for n in old if n is not None and not (n.bl_idname == "ShaderNodeGroup" and _is_face_tree(n.node_tree))]
+    if not old:
         return False
-    src = script if osl_usable(scene) or group is None or group.node_tree is None else group
-    if src is None:
-        return False
-    sock = src.outputs[0]
-    surface = out.inputs["Surface"]
-    if surface.is_linked and surface.links[0].from_socket == sock:
-        return False
-    nt.links.new(sock, surface)
+    links = []  # (from socket, model socket name) of links into the old parameter sockets
+    for n in old:
+        if n.name in (OLD_SCRIPT, OLD_GROUP):
+            links += [(lk.from_socket, lk.to_socket.name) for s in n.inputs if s.is_linked for lk in s.links
+                      if lk.from_node.name not in (OLD_TANGENT,) and s.name not in ("Normal", "Tangent", "lut_dir")]
+    for n in old:
+        nt.nodes.remove(n)
+    node, tree = ensure_face(mat) if face_node(mat) is None else (face_node(mat), face_node(mat).node_tree)
+    inputs = face.face_inputs(mat.lamella)
+    face.sync_interface(tree, inputs)
+    by_model = {i.model: i.key for i in inputs if i.model}
+    seen = set()
+    for src, model in links:
+        key = by_model.get(model)
+        sock = face.node_socket(node, key) if key else None
+        if sock is not None and key not in seen:
+            nt.links.new(src, sock)
+            seen.add(key)
     return True
 
 
@@ -316,48 +402,44 @@ def _layout_prefix() -> str:
 
 
 def broken(mat, group_pending: bool = False) -> str | None:
-    """What is wrong with the nodes of compiled material ``mat`` (a node deleted, a link cut, the
-    shader text edited, the node group or its table gone), or None if they render what Lamella
-    built. ``group_pending``: the node group waits for a rebuild anyway (not checked)."""
-    import bpy
-
+    """What is wrong with the nodes of compiled material ``mat`` (the face or what is inside it
+    deleted, the shader text edited, the node group or its table gone), or None if they render what
+    Lamella built. ``group_pending``: the node group waits for a rebuild anyway (not checked).
+    Where the face sits in the artist's tree, and what its output feeds, is the artist's."""
     nt = mat.node_tree
     if nt is None:
         return "the material has no nodes"
-    script, output, _ = lamella_nodes(mat)
-    if script is None:
+    node, script, group = inner_nodes(mat)
+    if node is None:
+        return f"the node '{face.FACE}' was deleted"
+    live = bool(mat.lamella.live_params)
+    if script is not None:
+        text = script.script
+        if text is None or not script.bytecode:
+            return f"the node '{SCRIPT}' has no shader"
+        if text.get(SOURCE_KEY) and source_digest(text.as_string()) != text[SOURCE_KEY]:
+            return f"the shader text '{text.name}' was edited"
+        if reads_old_tables(text.as_string()):
+            return f"the shader text '{text.name}' reads the look-up tables of an older Lamella"
+    elif not live:
         return f"the node '{SCRIPT}' was deleted"
-    text = script.script
-    if text is None or not script.bytecode:
-        return f"the node '{SCRIPT}' has no shader"
-    if text.get(SOURCE_KEY) and source_digest(text.as_string()) != text[SOURCE_KEY]:
-        return f"the shader text '{text.name}' was edited"
-    if reads_old_tables(text.as_string()):
-        return f"the shader text '{text.name}' reads the look-up tables of an older Lamella"
-    if output is None:
-        return f"the node '{OUTPUT}' was deleted"
-    surface = output.inputs["Surface"]
-    group = nt.nodes.get(GROUP)
-    if not surface.is_linked or surface.links[0].from_node not in (script, group):
-        return f"the node '{OUTPUT}' no longer shows the Lamella shader"
-    if group_pending:
+    if group_pending and script is not None:
         return None
     if group is None or group.node_tree is None:
         return f"the node group '{GROUP}' was deleted"
-    eevee = nt.nodes.get(EEVEE_OUTPUT)
-    if eevee is None or not eevee.inputs["Surface"].is_linked or eevee.inputs["Surface"].links[0].from_node != group:
-        return f"the node '{EEVEE_OUTPUT}' no longer shows the node group"
     if not str(group.node_tree.get(STRUCTURE_KEY, "")).startswith(_layout_prefix()):
         return f"the node group '{group.node_tree.name}' was built for the look-up tables of an older Lamella"
-    image = group.node_tree.get(TABLE_KEY)
-    if image and bpy.data.images.get(image) is None:
-        return f"the node group's table image '{image}' was deleted"
+    from .node_group import missing_images
+
+    gone = missing_images(group.node_tree)
+    if gone:
+        return f"the node group's image '{gone[0]}' was deleted"
     return None
 
 
 def prepare_repair(mat) -> None:
     """Make the next compile of ``mat`` rebuild its node group from scratch (what ``broken``
     finds wrong may sit inside it)."""
-    group = mat.node_tree.nodes.get(GROUP) if mat.node_tree is not None else None
+    _, _, group = inner_nodes(mat)
     if group is not None and group.node_tree is not None and STRUCTURE_KEY in group.node_tree:
         del group.node_tree[STRUCTURE_KEY]

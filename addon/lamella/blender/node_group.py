@@ -33,21 +33,56 @@ X_STEP, Y_STEP = 180.0, 150.0
 
 # ---------------------------------------------------------------- images
 def table_image(file: str):
-    """The EXR table ``file`` of the package as a Blender image (loaded once per .blend), read as
-    raw data: no colour management, four independent channels, full float precision."""
-    path = str(luts.DATA_DIR / file)
+    """The EXR table ``file`` of the package as a Blender image, packed into the .blend (a file
+    renders without the extension, wherever it is), loaded once per .blend and again only when the
+    package's file differs from what is packed. Raw data: no colour management, four independent
+    channels, full float precision."""
+    path = luts.DATA_DIR / file
+    digest = _file_digest(path)
     name = f".lamella_{file}"
     img = bpy.data.images.get(name)
-    if img is None or bpy.path.abspath(img.filepath) != path:
-        if img is not None:
-            bpy.data.images.remove(img)
-        img = bpy.data.images.load(path, check_existing=False)
+    if img is None or img.library is not None or img.get(DIGEST_KEY) != digest or img.packed_file is None:
+        if img is not None and img.library is None:
+            img.name = f"{name}.old"  # nodes that read it keep it until they are rebuilt
+        img = bpy.data.images.load(str(path), check_existing=False)
         img.name = name
+        img.pack()
+        img[DIGEST_KEY] = digest
     img.colorspace_settings.is_data = True
     img.alpha_mode = "CHANNEL_PACKED"
     if hasattr(img, "use_half_precision"):
         img.use_half_precision = False
     return img
+
+
+DIGEST_KEY = "lamella_digest"  # custom property of a packed table image: the digest of the package's file
+_DIGESTS: dict = {}
+
+
+def _file_digest(path) -> str:
+    import hashlib
+
+    key = str(path)
+    if key not in _DIGESTS:
+        _DIGESTS[key] = hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+    return _DIGESTS[key]
+
+
+def missing_images(tree) -> list[str]:
+    """The names of the images ``tree``'s Image Texture nodes (nested groups included) have lost:
+    an image deleted leaves its node reading nothing."""
+    gone, seen, todo = [], set(), [tree]
+    while todo:
+        t = todo.pop()
+        if t is None or t.name_full in seen:
+            continue
+        seen.add(t.name_full)
+        for n in t.nodes:
+            if n.bl_idname == "ShaderNodeTexImage" and n.image is None:
+                gone.append(n.label or n.name)
+            elif n.bl_idname == "ShaderNodeGroup":
+                todo.append(n.node_tree)
+    return gone
 
 
 # ---------------------------------------------------------------- helpers
@@ -64,11 +99,16 @@ def material_table_image(name: str, pixels):
     data: no colour management, full float precision."""
     h, w = pixels.shape[:2]
     img = bpy.data.images.get(name)
+    kept = {}
     if img is not None and (tuple(img.size) != (w, h) or not img.is_float):
+        kept = {k: img[k] for k in img.keys()}  # what says whose table it is
         bpy.data.images.remove(img)
         img = None
     if img is None:
         img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True, is_data=True)
+        img.name = name
+        for k, v in kept.items():
+            img[k] = v
     img.colorspace_settings.is_data = True
     img.alpha_mode = "CHANNEL_PACKED"
     if hasattr(img, "use_half_precision"):
@@ -115,7 +155,8 @@ def _depths(plan: Plan, nodes: list[int]) -> dict[int, int]:
 # ---------------------------------------------------------------- chunks
 def _intact(tree) -> bool:
     """Whether a nested group can be reused: every image it reads is still there."""
-    return all(n.image is not None for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+    return all(n.image is not None and not n.image.name.endswith(".old")
+               for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage")
 
 
 def _chunk_group(plan: Plan, chunk):

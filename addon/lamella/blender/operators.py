@@ -154,8 +154,7 @@ class LAMELLA_OT_disable(_MaterialOperator, bpy.types.Operator):
         from . import material_nodes
 
         for node in material_nodes.lamella_nodes(mat):
-            if node is not None:
-                mat.node_tree.nodes.remove(node)
+            mat.node_tree.nodes.remove(node)
         mat.lamella.enabled = False
         mat.lamella.status = "NONE"
 
@@ -201,7 +200,7 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
         from ..core import presets
         from ..core.layers import COAT_KINDS
         from . import recompile
-        from .stack_props import write_kind
+        from .stack_props import new_uid, write_kind
 
         s = mat.lamella
         if len(s.coats) >= MAX_COATS:
@@ -213,6 +212,7 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
         with recompile.suspended():
             item = s.coats.add()
             item.kind = kind.type
+            item.uid = new_uid()
             item.name = t["label"]
             write_kind(kind, item.settings(), layer)
             s.coats.move(len(s.coats) - 1, at)

@@ -203,6 +203,9 @@ def build_classes() -> tuple:
         "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
         "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
                              default=True, update=_on_edit),
+        "uid": StringProperty(name="Identity", options={"HIDDEN"},
+                              description="What keeps this layer's inputs on the material's node (textures, "
+                                          "keyframes) with it when other layers are added, moved or removed"),
         **{k: PointerProperty(type=KIND_GROUPS[k]) for k in COAT_KINDS},
     }
     LAMELLA_PG_base.__annotations__ = {

@@ -7,12 +7,16 @@ never fire there: pending work is also flushed before every render and every sav
 ``flush()`` does it on demand.
 
 The node group (EEVEE, Cycles without OSL) of a stack with many coats takes seconds to build
-(``bench/recompile.md``), ten times the OSL compile. A structure edit therefore updates the Script
-node at once and builds the group only when something renders it: at once if a scene needs it
-(EEVEE, or Cycles without OSL: ``material_nodes.group_needed``), else after ``GROUP_DELAY`` seconds
-without edits (the viewport's Material Preview runs EEVEE), before a render that needs it, before
-a save, and when a scene switches to an engine that needs it. The layer operators (add, remove,
-duplicate, move) do the same; ``apply_stack`` and the Recompile operator build both at once.
+(``bench/recompile.md``), ten times the OSL compile. A structure edit of a material whose OSL
+shader renders in Cycles therefore updates the Script node at once and builds the group only when
+something renders it: at once if a scene needs it (EEVEE, or Cycles without OSL:
+``material_nodes.group_needed``), else after ``GROUP_DELAY`` seconds without edits (the viewport's
+Material Preview runs EEVEE), before a render that needs it, before a save, and when a scene
+switches to an engine that needs it. A material whose shader leaves the Script node out (a linked
+input reaching a table file: ``material_nodes.install``) builds its group at once. The layer
+operators (add, remove, duplicate, move) do the same; ``apply_stack`` and the Recompile operator
+build both at once. None of this runs at render time for the render's sake: the saved file
+renders right without the extension (the face's engine switch, ``face``).
 
 A slider dragged sends an edit every few tens of milliseconds. An edit the edit timer compiles
 within ``DRAG_WINDOW`` of the material's previous compile keeps that compile's grouping of the
@@ -198,14 +202,12 @@ def flush_groups() -> None:
     def build(mat):
         stack = Stack.from_json(mat.lamella.compiled_json)
         live = tuple(p for p in mat.lamella.live_params.split(", ") if p)
-        material_nodes.install_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
-        if bpy.context.scene is not None:
-            material_nodes.wire_cycles(mat, bpy.context.scene)
+        material_nodes.build_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
 
     for key in work:
         mat = _material(key)
-        script = mat.node_tree.nodes.get(material_nodes.SCRIPT) if mat is not None and mat.node_tree else None
-        if script is None or script.script is None or not mat.lamella.enabled or not mat.lamella.compiled_json:
+        if mat is None or material_nodes.face_node(mat) is None or not mat.lamella.enabled \
+                or not mat.lamella.compiled_json:
             continue
         _guarded(mat, "building the node group", lambda m=mat: build(m))
     if work:
@@ -230,7 +232,8 @@ def build_shader(stack, model: str, live=(), budget="auto", partition=None):
     from ..core.backends.osl import osl_shader
     from .osl_compile import compile_source
 
-    shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition)
+    shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition,
+                        engine_switch=True)
     return shader, compile_source(shader.source, "lamella"), shader.model
 
 
@@ -238,19 +241,15 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     """Put a built shader into ``mat`` and record what it shows. With ``defer_group`` a structure
     change leaves the node group for ``flush_groups`` (a timer, a render or a save); without
     ``inspect`` the lobe inspector is left for the caller to refresh."""
-    from ..core import luts
     from . import inspector, material_nodes
 
     shader, oso, picked = built
-    material_nodes.install_shader(mat, shader, oso, str(luts.DATA_DIR))
-    if material_nodes.install_group(mat, stack, mat.lamella.model, shader, build=not defer_group) is None:
+    if material_nodes.install(mat, stack, mat.lamella.model, shader, oso, build_group=not defer_group) is None:
         _stale_groups.add(mat.name_full)
         if not bpy.app.timers.is_registered(_on_group_timer):
             bpy.app.timers.register(_on_group_timer, first_interval=GROUP_DELAY)
     else:
         _stale_groups.discard(mat.name_full)
-    if bpy.context.scene is not None:
-        material_nodes.wire_cycles(mat, bpy.context.scene)
     settings = mat.lamella
     settings.picked_model = picked
     if shader.staged is not None:
@@ -278,11 +277,12 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     from ..core.models import UnsupportedStack
     from ..core.stack import Stack, StackError
     from .osl_compile import OSLCompileError
-    from .stack_props import stack_dict
+    from .stack_props import ensure_uids, stack_dict
     from . import material_nodes
 
     settings = mat.lamella
     t0 = time.perf_counter()
+    ensure_uids(settings)
     if settings.compiled_json:
         _guarded(mat, "checking the nodes", lambda: repair_needed(mat))
     if versioning.refuses_edits(settings):  # a newer Lamella's data: keep it and its shader as saved
@@ -355,18 +355,6 @@ def _flush_before(*_args):
         flush_groups()
 
 
-def rewire(scene) -> int:
-    """Point every Lamella material's Cycles output at what ``scene`` can render (the Script node
-    with OSL on the CPU or OptiX, the node group otherwise). Returns how many changed."""
-    from . import material_nodes
-
-    changed = 0
-    for mat in bpy.data.materials:
-        if mat.library is None and mat.lamella.enabled:
-            changed += _guarded(mat, "wiring the output", lambda m=mat: material_nodes.wire_cycles(m, scene), 0)
-    return changed
-
-
 _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles ran OSL) at the last look
 
 
@@ -388,13 +376,12 @@ def _before_render(scene, *_args):
         settle()
     if _stale_groups and _guarded(scene, "checking the engine", lambda: group_needed(scene), True):
         flush_groups()
-    rewire(scene)
 
 
 @persistent
 def _after_depsgraph(scene, depsgraph=None, *_args):
-    """Rewire when the scene's engine, OSL switch or device changes, building the node groups
-    that wait if the scene now renders them (cheap otherwise: one comparison); compile a Lamella
+    """When the scene's engine, OSL switch or device changes, build the node groups that wait if
+    the scene now renders them (cheap otherwise: one comparison); compile a Lamella
     material that arrives without a shader (``never_compiled``: looked for among the updated data
     only)."""
     from .material_nodes import group_needed, osl_usable
@@ -410,14 +397,13 @@ def _after_depsgraph(scene, depsgraph=None, *_args):
         _osl_state[scene.name] = state
         if _stale_groups and group_needed(scene):
             flush_groups()
-        rewire(scene)
 
 
 @persistent
 def _after_load(*_args):
-    """A .blend made elsewhere: point its shaders at this installation's tables; redraw the lobe
-    inspectors' previews (images are not saved with their pixels)."""
-    from ..core import luts
+    """A .blend opened: its materials brought to this version (``versioning``: the stack format,
+    the layers' identities, an earlier version's nodes moved into the face); the lobe inspectors'
+    previews redrawn (images are not saved with their pixels)."""
     from . import material_nodes
 
     _pending.clear()
@@ -429,8 +415,7 @@ def _after_load(*_args):
             state = _guarded(mat, "reading the stored stack", lambda m=mat: versioning.check_loaded(m), "current")
             if state == "newer":
                 continue
-            _guarded(mat, "pointing the shader at the tables", lambda m=mat: material_nodes.refresh_lut_dir(m, str(luts.DATA_DIR)))
-            if state == "migrated":
+            if state == "migrated" or _guarded(mat, "reading the nodes", lambda m=mat: material_nodes.old_layout(m)):
                 schedule(mat)
             schedule_inspector(mat)
     _guarded(None, "removing unused data", material_nodes.drop_unused_data)

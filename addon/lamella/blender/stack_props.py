@@ -8,6 +8,7 @@ the numbers that were written.
 from __future__ import annotations
 
 import math
+import uuid
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.stack import Stack
@@ -77,17 +78,37 @@ def layer_label(layer) -> str:
     return "Rough Coat" if not layer.is_smooth else "Clear Coat"
 
 
+def new_uid() -> str:
+    """A new layer identity (``LAMELLA_PG_layer.uid``)."""
+    return uuid.uuid4().hex[:12]
+
+
+def ensure_uids(settings) -> bool:
+    """Give every coat an identity of its own (a coat from a file saved before identities, or two
+    sharing one). Returns whether any changed."""
+    seen, changed = set(), False
+    for item in settings.coats:
+        if not item.uid or item.uid in seen or item.uid == "base":
+            item.uid = new_uid()
+            changed = True
+        seen.add(item.uid)
+    return changed
+
+
 def write_stack(settings, stack: Stack) -> None:
     """Replace the material's layers and base by ``stack`` (already validated), stored in the
-    current stack format."""
+    current stack format. The coat at each position keeps its identity (the face's inputs, and
+    the textures linked into them, stay with the position, as a whole-stack replacement means)."""
     from ..core.stack_format import FORMAT
 
     settings.format = FORMAT
     settings.stack_name = stack.name
+    kept = [item.uid for item in settings.coats]  # the layer at each position keeps its identity
     settings.coats.clear()
-    for c in stack.coats:
+    for k, c in enumerate(stack.coats):
         item = settings.coats.add()
         item.kind = c.type
+        item.uid = kept[k] if k < len(kept) and kept[k] else new_uid()
         item.name = layer_label(c)
         write_kind(COAT_KINDS[c.type], item.settings(), c)
     settings.active_index = 0
@@ -96,7 +117,9 @@ def write_stack(settings, stack: Stack) -> None:
 
 
 def copy_layer(src, dst) -> None:
-    """Copy one coat item's kind, visibility and every kind's fields (a duplicate)."""
+    """Copy one coat item's kind, visibility and every kind's fields (a duplicate: a layer of its
+    own, with a new identity)."""
+    dst.uid = new_uid()
     dst.kind = src.kind
     dst.show = src.show
     dst.name = src.name

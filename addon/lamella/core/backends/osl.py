@@ -262,6 +262,9 @@ class OslShader:
         return self.staged.live_sockets if self.staged is not None else tuple(sk.name for sk in sockets(self.params))
 
 
+ENGINE_SWITCH = "lamella_osl"  # the output a Blender shader sets to 1 (``osl_shader``'s ``engine_switch``)
+
+
 @dataclass(frozen=True)
 class ShaderParam:
     """One parameter of a generated shader's declaration: its OSL type, its default as printed."""
@@ -291,7 +294,7 @@ def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str |
 
 def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
                view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all",
-               partition=None) -> OslShader:
+               partition=None, engine_switch: bool = False) -> OslShader:
     """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
 
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
@@ -307,7 +310,10 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     line computing the view direction. ``declare``: "all" declares every parameter of the model
     (Blender's Script node, whose sockets are where a texture is linked), "live" only those the
     shader reads (an exported shader: no input that changes nothing). ``partition``: the lobes'
-    grouping into closures to keep (``staging.stage``)."""
+    grouping into closures to keep (``staging.stage``). ``engine_switch``: the shader also writes
+    1 to the output ``ENGINE_SWITCH`` (declared 0): a Mix Shader whose factor it drives picks the
+    shader where Cycles runs OSL, and its own factor (0) where a renderer drops the Script node
+    (Cycles without OSL, EEVEE), with no add-on code at render time."""
     if declare not in ("all", "live"):
         raise ValueError(f"declare must be 'all' or 'live', got {declare!r}")
     if view not in VIEW_LINES:
@@ -346,6 +352,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
     if uses_tables:
         declared.append(ShaderParam("lut_dir", "string", f'"{lut_path}"'))
+    if engine_switch:
+        declared.append(ShaderParam(ENGINE_SWITCH, "float", "0.0", output=True))
     declared.append(ShaderParam("BSDF", "closure color", "0", output=True))
     if frame == "view":
         frame_lines = [
@@ -360,7 +368,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
             "    // local shading frame: z = N, x = the shading tangent (default: radial about world z)",
             "    vector Tn = Tangent - dot(Tangent, Normal) * Normal;",
         ]
-    body = frame_lines + [
+    body = ([f"    {ENGINE_SWITCH} = 1.0;  // this shader runs: Cycles with OSL"] if engine_switch else []) + frame_lines + [
         "    if (length(Tn) < 1e-8) Tn = vector(-P[1], P[0], 0.0) - dot(vector(-P[1], P[0], 0.0), Normal) * Normal;",
         "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(0.0, 1.0, 0.0));",
         "    if (length(Tn) < 1e-8) Tn = cross(Normal, vector(1.0, 0.0, 0.0));",
@@ -406,8 +414,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "",
         *([header.rstrip(), ""] if header else []),
         f"shader {shader}(",
-        *[f"    {'output ' if d.output else ''}{d.type} {d.name} = {d.default}{')' if d.output else ','}"
-          for d in declared],
+        *[f"    {'output ' if d.output else ''}{d.type} {d.name} = {d.default}{')' if k == len(declared) - 1 else ','}"
+          for k, d in enumerate(declared)],
         "{",
         *body,
         "}",

@@ -1,0 +1,294 @@
+"""A Lamella material's face: the one shading node an artist sees, textures and composes.
+
+The face is a group node (``FACE``) in the material's own node tree. Its group (one per material,
+``Lamella <material>``) has an input for every field of every layer, in the panel's order, units
+and labels ("Clear Coat: Roughness" in Blender's roughness r, a colour as one colour socket, an
+angle in radians), then ``Normal`` and ``Tangent``, and a ``BSDF`` output. The artist links
+textures into it and puts it anywhere in their tree (a Mix Shader, an Add Shader with an
+emission); Lamella never touches a node or link outside the group except to link a face it has
+just created into an output whose surface shows nothing Lamella did not make.
+
+Each input belongs to a layer, not to a position: its key is ``<layer uid>/<field>``
+(``FaceInput``), kept in the group (``SOCKETS_KEY``: interface socket identifier -> key), so a
+texture, keyframe or link on a coat stays on that coat when others are added, removed, moved,
+muted or duplicated. A muted coat keeps its inputs (and their links); they feed nothing.
+
+Inside the group (rebuilt by ``wire``): each input clamped to its field's hard limits (a linked
+value behaves as a panel value; a colour above a reflectance's 1 adds no energy), the normal
+(the Normal input where linked, else the shading normal) and the tangent (the Tangent input where
+linked, else radial about the object's z, as the panel's default), then two renderings of the
+same model side by side:
+
+- the node group (``GROUP``: ``node_group``), what Cycles without OSL and EEVEE render;
+- the OSL shader (``SCRIPT``), where it needs no file outside the .blend (a staged shader whose
+  tables are all inside it: every material without a texture linked);
+
+and a Mix Shader (``SWITCH``) whose factor the OSL shader drives: the shader writes 1 to it when
+Cycles runs it; Cycles without OSL and EEVEE drop the Script node and read the factor's own 0, the
+node group. No add-on code runs at render time, so a saved file renders the same without the
+extension, in any of the three.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+
+FACE = "Lamella"  # the face node's name in the material
+FACE_KEY = "lamella_face"  # a face group's layout version
+FACE_LAYOUT = 1
+SOCKETS_KEY = "lamella_sockets"  # face group: interface socket identifier -> input key
+SCRIPT = "Lamella Shader"
+GROUP = "Lamella Nodes"
+SWITCH = "Lamella Switch"
+NORMAL, TANGENT = "Normal", "Tangent"
+BASE_UID = "base"
+
+
+@dataclass(frozen=True)
+class FaceInput:
+    """One input of the face: ``key`` (``<layer uid>/<field>``) names the layer and field it
+    belongs to; ``name`` the label shown; ``socket_type`` a Blender interface socket type and
+    ``subtype``; ``value`` the panel's value (a float or an RGB tuple); ``lo``/``hi`` the hard
+    limits a linked value is clamped to (None: open); ``model`` the model socket it feeds now
+    (``core.backends.sockets``: ``coat0_roughness``), None for a muted layer."""
+
+    key: str
+    name: str
+    socket_type: str
+    subtype: str
+    value: object
+    lo: float | None
+    hi: float | None
+    model: str | None
+
+
+def _field_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[FaceInput]:
+    out = []
+    for f in kind.fields:
+        model = f"{prefix}_{f.name}" if prefix else None
+        name = f"{label}: {f.ui_label}"
+        if f.type in (FLOAT, ANGLE):
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "ANGLE" if f.type == ANGLE else "NONE",
+                                 float(getattr(pg, f.name)), f.lo, f.hi, model))
+        elif f.type == RGB:
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketColor", "NONE",
+                                 tuple(float(x) for x in getattr(pg, f.name)), f.lo, f.hi, model))
+        elif f.type == ROUGHNESS:
+            aniso = bool(getattr(pg, f"{f.name}_anisotropic"))
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "FACTOR", float(getattr(pg, f.name)),
+                                 0.0, 1.0, (f"{model}_x" if aniso else model) if model else None))
+            if aniso:
+                out.append(FaceInput(f"{uid}/{f.name}_y", f"{name} Y", "NodeSocketFloat", "FACTOR",
+                                     float(getattr(pg, f"{f.name}_y")), 0.0, 1.0, f"{model}_y" if model else None))
+    return out
+
+
+def face_inputs(settings) -> list[FaceInput]:
+    """The face's inputs for a material's Lamella ``settings``: every coat top to bottom (a muted
+    one's feed nothing), then the base; Normal and Tangent are added by ``sync_interface``."""
+    out, shown = [], 0
+    for item in settings.coats:
+        prefix = f"coat{shown}" if item.show else None
+        out += _field_inputs(COAT_KINDS[item.kind], item.settings(), item.uid, item.name, prefix)
+        shown += int(item.show)
+    base = BASE_KINDS[settings.base.kind]
+    out += _field_inputs(base, settings.base.settings(), BASE_UID, "Base", "base")
+    return out
+
+
+# ---------------------------------------------------------------- the group's interface
+def _inputs(tree):
+    return [s for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "INPUT"]
+
+
+def socket_keys(tree) -> dict:
+    """Interface socket identifier -> input key of a face group."""
+    stored = tree.get(SOCKETS_KEY)
+    return {k: str(v) for k, v in stored.items()} if stored is not None else {}
+
+
+def sync_interface(tree, inputs: list[FaceInput]) -> None:
+    """Make ``tree``'s interface the face's ``inputs`` (then Normal, Tangent; output BSDF), keeping
+    every socket whose key stays (and so the links, keyframes and drivers on it), renamed and
+    moved to its place."""
+    keys = socket_keys(tree)
+    want = [(i.key, i.name, i.socket_type) for i in inputs] + [(NORMAL, NORMAL, "NodeSocketVector"),
+                                                                 (TANGENT, TANGENT, "NodeSocketVector")]
+    types = {k: t for k, _, t in want}
+    have = {}
+    for s in _inputs(tree):
+        key = keys.get(s.identifier, s.name if s.name in (NORMAL, TANGENT) else None)
+        if key in types and s.socket_type == types[key] and key not in have:
+            have[key] = s
+        else:
+            tree.interface.remove(s)
+    outs = [s for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT"]
+    for s in outs:
+        if s.name != "BSDF" or s.socket_type != "NodeSocketShader":
+            tree.interface.remove(s)
+    if not any(s.name == "BSDF" and s.socket_type == "NodeSocketShader" for s in outs):
+        tree.interface.new_socket(name="BSDF", in_out="OUTPUT", socket_type="NodeSocketShader")
+    spec = {i.key: i for i in inputs}
+    first = sum(1 for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT")
+    for pos, (key, name, typ) in enumerate(want):
+        s = have.get(key)
+        if s is None:
+            s = have[key] = tree.interface.new_socket(name=name, in_out="INPUT", socket_type=typ)
+        if s.name != name:
+            s.name = name
+        i = spec.get(key)
+        if i is None:
+            s.hide_value = True
+        else:
+            if hasattr(s, "subtype") and s.subtype != i.subtype:
+                try:
+                    s.subtype = i.subtype
+                except (TypeError, AttributeError):
+                    pass
+            if i.socket_type == "NodeSocketFloat":
+                s.min_value = -3.0e38 if i.lo is None else i.lo
+                s.max_value = 3.0e38 if i.hi is None else i.hi
+            _set(s, i.value)
+        if s.position != first + pos:  # in order, every move is upward: it lands where it is asked to
+            tree.interface.move(s, first + pos)
+    tree[SOCKETS_KEY] = {s.identifier: key for key, s in have.items()}
+
+
+def _set(sock, value) -> None:
+    if isinstance(value, tuple) and len(sock.default_value) == 4:
+        value = (*value, 1.0)
+    if isinstance(value, tuple):
+        if tuple(sock.default_value) != tuple(value):
+            sock.default_value = value
+    elif sock.default_value != value:
+        sock.default_value = value
+
+
+def node_socket(node, key: str):
+    """The face node's input socket of ``key``, or None."""
+    tree = node.node_tree
+    if tree is None:
+        return None
+    ident = next((i for i, k in socket_keys(tree).items() if k == key), None)
+    if ident is None:
+        return None
+    return next((s for s in node.inputs if s.identifier == ident), None)
+
+
+def set_node_values(node, inputs: list[FaceInput]) -> None:
+    """The face node's unlinked inputs show the panel's values (what the shader bakes)."""
+    for i in inputs:
+        sock = node_socket(node, i.key)
+        if sock is not None:
+            _set(sock, i.value)
+
+
+def linked_models(node, inputs: list[FaceInput]) -> tuple:
+    """The model sockets whose face inputs are linked (a texture, an attribute, another node):
+    what the shader must read live. Sorted."""
+    out = set()
+    for i in inputs:
+        sock = node_socket(node, i.key)
+        if i.model and sock is not None and sock.is_linked:
+            out.add(i.model)
+    return tuple(sorted(out))
+
+
+# ---------------------------------------------------------------- inside the group
+X = 200.0
+
+
+def _clamped(nt, src, i: FaceInput, y: float):
+    """``src`` clamped to ``i``'s hard limits (a colour channel-wise)."""
+    out = src
+    if i.socket_type == "NodeSocketColor":
+        for op, bound in (("MAXIMUM", i.lo), ("MINIMUM", i.hi)):
+            if bound is None:
+                continue
+            n = nt.nodes.new("ShaderNodeVectorMath")
+            n.operation, n.location, n.hide = op, (X if op == "MAXIMUM" else 2 * X, y), True
+            n.inputs[1].default_value = (bound, bound, bound)
+            nt.links.new(out, n.inputs[0])
+            out = n.outputs[0]
+        return out
+    lo = -3.0e38 if i.lo is None else i.lo
+    hi = 3.0e38 if i.hi is None else i.hi
+    n = nt.nodes.new("ShaderNodeClamp")
+    n.clamp_type, n.location, n.hide = "MINMAX", (X, y), True
+    n.inputs["Min"].default_value, n.inputs["Max"].default_value = lo, hi
+    nt.links.new(out, n.inputs["Value"])
+    return n.outputs[0]
+
+
+def _pick_vector(nt, given, fallback, location):
+    """``given`` where it is not zero (a linked input), else ``fallback``."""
+    length = nt.nodes.new("ShaderNodeVectorMath")
+    length.operation, length.location, length.hide = "LENGTH", location, True
+    nt.links.new(given, length.inputs[0])
+    test = nt.nodes.new("ShaderNodeMath")
+    test.operation, test.location, test.hide = "GREATER_THAN", (location[0] + X, location[1]), True
+    nt.links.new(length.outputs["Value"], test.inputs[0])
+    test.inputs[1].default_value = 1e-8
+    mix = nt.nodes.new("ShaderNodeMix")
+    mix.data_type, mix.location, mix.hide = "VECTOR", (location[0] + 2 * X, location[1]), True
+    nt.links.new(test.outputs[0], _by_id(mix.inputs, "Factor_Float"))
+    nt.links.new(fallback, _by_id(mix.inputs, "A_Vector"))
+    nt.links.new(given, _by_id(mix.inputs, "B_Vector"))
+    return _by_id(mix.outputs, "Result_Vector")
+
+
+def _by_id(sockets, identifier):
+    return next(s for s in sockets if s.identifier == identifier)
+
+
+def wire(tree, inputs: list[FaceInput], script, group) -> None:
+    """Rebuild the group's inside around ``script`` (the Script node, or None) and ``group`` (the
+    node group's node, or None), which are kept: everything else is made anew."""
+    nt = tree
+    for n in [n for n in nt.nodes if n not in (script, group)]:
+        nt.nodes.remove(n)
+    for link in list(nt.links):
+        nt.links.remove(link)
+    keys = {k: ident for ident, k in socket_keys(tree).items()}
+    gin = nt.nodes.new("NodeGroupInput")
+    gin.location = (-X, 0.0)
+
+    def port(key):
+        return next(s for s in gin.outputs if s.identifier == keys[key])
+
+    geometry = nt.nodes.new("ShaderNodeNewGeometry")
+    geometry.location, geometry.hide = (0.0, 200.0), True
+    radial = nt.nodes.new("ShaderNodeTangent")
+    radial.direction_type, radial.axis, radial.location, radial.hide = "RADIAL", "Z", (0.0, 160.0), True
+    normal = _pick_vector(nt, port(NORMAL), geometry.outputs["Normal"], (X, 200.0))
+    tangent = _pick_vector(nt, port(TANGENT), radial.outputs["Tangent"], (X, 160.0))
+    feeds = {NORMAL: normal, TANGENT: tangent}
+    read = {sock.name for node in (script, group) if node is not None for sock in node.inputs}
+    for k, i in enumerate(inputs):
+        if i.model in read:
+            feeds[i.model] = _clamped(nt, port(i.key), i, -40.0 * k)
+    for node in (script, group):
+        if node is None:
+            continue
+        node.location = (4 * X, 300.0 if node is script else -100.0)
+        for sock in node.inputs:
+            src = feeds.get(sock.name)
+            if src is not None:
+                nt.links.new(src, sock)
+    gout = nt.nodes.new("NodeGroupOutput")
+    gout.location = (7 * X, 0.0)
+    shaders = [n.outputs["BSDF"] for n in (group, script) if n is not None and "BSDF" in n.outputs]
+    if script is not None and group is not None:
+        from ..core.backends.osl import ENGINE_SWITCH
+
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        mix.name = mix.label = SWITCH
+        mix.location = (6 * X, 0.0)
+        mix.inputs["Fac"].default_value = 0.0
+        nt.links.new(script.outputs[ENGINE_SWITCH], mix.inputs["Fac"])
+        nt.links.new(group.outputs["BSDF"], mix.inputs[1])
+        nt.links.new(script.outputs["BSDF"], mix.inputs[2])
+        nt.links.new(mix.outputs[0], gout.inputs["BSDF"])
+    elif shaders:
+        nt.links.new(shaders[0], gout.inputs["BSDF"])
