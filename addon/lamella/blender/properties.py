@@ -201,6 +201,8 @@ def build_classes() -> tuple:
     KIND_GROUPS.update({k.type: _kind_group(k) for k in (*COAT_KINDS.values(), *BASE_KINDS.values())})
     LAMELLA_PG_layer.__annotations__ = {
         "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
+        "name": StringProperty(name="Name", description="The layer's name: the list's and its inputs' on the "
+                                                        "material's Lamella node", update=_on_edit),
         "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
                              default=True, update=_on_edit),
         "uid": StringProperty(name="Identity", options={"HIDDEN"},
