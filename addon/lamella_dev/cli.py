@@ -20,6 +20,35 @@ def _fail(message: str) -> SystemExit:
     return SystemExit(2)
 
 
+MAX_RESOLUTION = 16384  # pixels a side: Blender's own limit for a render's resolution
+
+
+def _count(what: str, hi: int | None = None):
+    """An argparse type: a whole number from 1 (to ``hi``), else exit code 2 with one line."""
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a whole number, got {text!r}") from None
+        if n < 1 or (hi is not None and n > hi):
+            raise argparse.ArgumentTypeError(f"{what} must be from 1 to {hi}, got {n}" if hi is not None
+                                             else f"{what} must be 1 or more, got {n}")
+        return n
+    return parse
+
+
+BLEND_MAGIC = (b"BLENDER", b"\x28\xb5\x2f\xfd", b"\x1f\x8b")  # a .blend as written, zstd- or gzip-compressed
+
+
+def _is_blend(p: Path) -> bool:
+    try:
+        with open(p, "rb") as f:
+            head = f.read(7)
+    except OSError:
+        return False
+    return head.startswith(BLEND_MAGIC)
+
+
 def _is_file(p: Path) -> bool:
     try:
         return p.is_file()
@@ -285,8 +314,10 @@ def cmd_apply(a) -> int:
     as ``apply_stack`` inside Blender."""
     stack = _load_stack(a.stack)
     blend_in = Path(a.blend)
-    if not blend_in.exists():
+    if not _is_file(blend_in):
         raise _fail(f"apply: no such .blend file: {blend_in}")
+    if not _is_blend(blend_in):
+        raise _fail(f"apply: {blend_in} is not a .blend file")
     import bpy
 
     from lamella.blender import api, register
@@ -489,8 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scene", choices=["sphere-env", "sphere-sun", "white-furnace"], default="sphere-env",
                    help="white-furnace: uniform white world, each pixel shows the directional albedo")
     p.add_argument("--sun-dir", default="0,-1,1", help="world direction from the surface toward the sun")
-    p.add_argument("--res", type=int, default=96)
-    p.add_argument("--spp", type=int, default=32)
+    p.add_argument("--res", type=_count("--res", MAX_RESOLUTION), default=96)
+    p.add_argument("--spp", type=_count("--spp"), default=32)
     p.add_argument("--engine", choices=["cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled",
                                         "reference"],
                    default="cycles-osl",
@@ -507,8 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("image-references",
                        help="render and store the brute-force image references (nested interface spheres)")
     p.add_argument("--cases", help="comma-separated suite cases (default: all)")
-    p.add_argument("--spp", type=int, default=2048, help="total samples per pixel (two seeds of half each)")
-    p.add_argument("--res", type=int, default=128)
+    p.add_argument("--spp", type=_count("--spp"), default=2048, help="total samples per pixel (two seeds of half each)")
+    p.add_argument("--res", type=_count("--res", MAX_RESOLUTION), default=128)
     p.add_argument("--thickness", type=float, help="shell thickness per coat (default 0.004 of the radius)")
     p.add_argument("--out", help="output folder (default: tests/references/images)")
     p.add_argument("--add", action="store_true", help="refine the stored references by --spp more samples")
@@ -520,8 +551,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the main job: render the demo stacks (EXR, PNG, contact sheet) into a folder")
     p.add_argument("--out", default="out")
     p.add_argument("--cases", help="comma-separated stacks (default: the suite and the examples)")
-    p.add_argument("--res", type=int, default=128)
-    p.add_argument("--render-spp", type=int, default=64)
+    p.add_argument("--res", type=_count("--res", MAX_RESOLUTION), default=128)
+    p.add_argument("--render-spp", type=_count("--render-spp"), default=64)
     p.add_argument("--plots", action="store_true", help="also write BRDF slice plots against the reference")
     p.add_argument("--spp", type=int, default=256, help="reference walkers per direction of the slice plots")
     p.set_defaults(fn=cmd_demo)

@@ -35,13 +35,14 @@ def test_apply_then_read_gives_the_stack_back(addon, case):
     _same_stack(api.read_stack(mat), stack.to_dict())
     s = mat.lamella
     assert s.enabled and s.status == "OK", s.status_message
-    script, output, _ = material_nodes.lamella_nodes(mat)
-    group, eevee = (mat.node_tree.nodes[n] for n in (material_nodes.GROUP, material_nodes.EEVEE_OUTPUT))
-    shown = script if material_nodes.osl_usable(addon.context.scene) else group
-    assert output.target == "CYCLES" and output.inputs["Surface"].links[0].from_node == shown
-    assert eevee.target == "EEVEE" and eevee.inputs["Surface"].links[0].from_node == group
+    face, script, group = material_nodes.inner_nodes(mat)
+    output = mat.node_tree.get_output_node("ALL")
+    assert output.target == "ALL" and output.inputs["Surface"].links[0].from_node == face, "one output, every engine"
+    assert [n.bl_idname for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"] == [
+        "ShaderNodeOutputMaterial"]
     assert "BSDF" in script.outputs and len(script.inputs) > 3
-    assert {s.name for s in script.inputs} - {"lut_dir"} <= {s.name for s in group.inputs}, "same parameter sockets"
+    assert {s.name for s in script.inputs} <= {s.name for s in group.inputs}, "same parameter sockets"
+    assert all(s.is_linked for s in group.inputs), "every input of the group is fed by the Lamella node"
     assert json.loads(s.compiled_json)["base"]["type"] == stack.base.type
 
 
@@ -69,11 +70,11 @@ def test_read_stack_of_a_plain_material_is_none(addon):
 def test_bad_input_raises_and_leaves_the_material_intact(addon, bad, where):
     mat = addon.data.materials.new("intact")
     api.apply_stack(mat, suite.load("tinted_varnish"))
-    before_stack, before_src = api.read_stack(mat), mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    before_stack, before_src = api.read_stack(mat), material_nodes.shader_source(mat)
     with pytest.raises(StackError, match=where):
         api.apply_stack(mat, bad)
     assert api.read_stack(mat) == before_stack
-    assert mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == before_src
+    assert material_nodes.shader_source(mat) == before_src
     assert mat.lamella.status == "OK"
 
 
@@ -93,17 +94,17 @@ def test_user_nodes_stay_and_linked_textures_survive_recompiles(addon):
     nt = node_tree(mat)
     user = {n.name for n in nt.nodes}  # the default Principled BSDF and its output
     api.apply_stack(mat, suite.load("gold_coated"))
-    script = nt.nodes[material_nodes.SCRIPT]
     tex = nt.nodes.new("ShaderNodeTexNoise")
-    nt.links.new(tex.outputs["Fac"], script.inputs["coat0_roughness"])
+    nt.links.new(tex.outputs["Fac"], api.input_socket(mat, 0, "roughness"))
     mat.lamella.coats[0].coat.ior = 1.7  # a value edit
     recompile.flush()
     mat.lamella.base.conductor.roughness = 0.5  # and another
     recompile.flush()
     assert user <= {n.name for n in nt.nodes}
-    assert script.inputs["coat0_roughness"].is_linked and script.inputs["coat0_roughness"].links[0].from_node == tex
-    assert abs(script.inputs["coat0_ior"].default_value - 1.7) < 1e-6
-    assert abs(script.inputs["base_roughness"].default_value - 0.5) < 1e-6  # the panel's r
+    rough = api.input_socket(mat, 0, "roughness")
+    assert rough.is_linked and rough.links[0].from_node == tex
+    assert abs(api.input_socket(mat, 0, "ior").default_value - 1.7) < 1e-6
+    assert abs(api.input_socket(mat, "base", "roughness").default_value - 0.5) < 1e-6  # the panel's r
 
 
 def test_edits_schedule_and_the_render_flushes_them(addon, scene):
@@ -115,7 +116,7 @@ def test_edits_schedule_and_the_render_flushes_them(addon, scene):
     assert mat.lamella.status == "PENDING" and mat.name_full in recompile.pending()
     rough = render(sc)  # render_pre compiles the pending edit first
     assert mat.lamella.status == "OK" and not recompile.pending()
-    assert abs(mat.node_tree.nodes[material_nodes.SCRIPT].inputs["base_roughness"].default_value - 0.9) < 1e-5
+    assert abs(api.input_socket(mat, "base", "roughness").default_value - 0.9) < 1e-5
     assert np.abs(rough - dark).mean() > 1e-3
 
 
@@ -135,10 +136,11 @@ def test_duplicated_material_is_independent(addon):
     b = a.copy()
     b.lamella.coats[0].coat.ior = 1.9
     recompile.flush()
-    sa, sb = (m.node_tree.nodes[material_nodes.SCRIPT] for m in (a, b))
+    sa, sb = (material_nodes.inner_nodes(m)[1] for m in (a, b))
     assert sa.script != sb.script
-    assert abs(sa.inputs["coat0_ior"].default_value - 1.5) < 1e-6
-    assert abs(sb.inputs["coat0_ior"].default_value - 1.9) < 1e-6
+    assert abs(api.input_socket(a, 0, "ior").default_value - 1.5) < 1e-6
+    assert abs(api.input_socket(b, 0, "ior").default_value - 1.9) < 1e-6
+    assert material_nodes.face_node(a).node_tree != material_nodes.face_node(b).node_tree
     assert api.read_stack(a)["layers"][0]["ior"] == 1.5
 
 
@@ -147,9 +149,9 @@ def test_an_invalid_edit_keeps_the_last_working_shader(addon):
     the schema's limits); a forced model that cannot run an edited stack can."""
     mat = addon.data.materials.new("forced")
     api.apply_stack(mat, suite.load("gold_coated"), model="endf")
-    src = mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    src = material_nodes.shader_source(mat)
     c = mat.lamella.coats[0].coat
     c.thickness, c.sigma_s = 1.0, (1.0, 1.0, 1.0)  # endf has no scattering media
     recompile.flush()
     assert mat.lamella.status == "ERROR" and "endf" in mat.lamella.status_message
-    assert mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == src
+    assert material_nodes.shader_source(mat) == src

@@ -1,5 +1,5 @@
-"""The extension wires both backends: the Script node where Cycles runs OSL, the node group where
-it cannot (OSL off, a GPU device) and in EEVEE, switching by itself when the scene changes."""
+"""Both backends in the Lamella node: the Script node where Cycles runs OSL, the node group where
+it cannot (OSL off, a GPU device) and in EEVEE, chosen by the renderer itself (no rewiring)."""
 import numpy as np
 import pytest
 
@@ -12,58 +12,54 @@ from lamella.blender import api, material_nodes, recompile  # noqa: E402
 from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
 
 
-def _shown(mat):
-    return mat.node_tree.nodes[material_nodes.OUTPUT].inputs["Surface"].links[0].from_node.name
+def _group_tree(mat):
+    return material_nodes.inner_nodes(mat)[2].node_tree
 
 
 def test_cycles_without_osl_renders_the_node_group_and_the_same_image(addon):
+    """One material, no rewiring: Cycles with OSL runs the Script node, Cycles without OSL the node
+    group behind the same output, and they render the same image."""
     sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
     sc.cycles.filter_width = 0.01
     mat = new_material(sphere)
     # isotropic: Blender before 5.0 reads the Glossy BSDF's anisotropy differently (the
     # anisotropic exactness test, test_node_exactness.py, is for the Blender the project targets)
     api.apply_stack(mat, suite.load("tinted_varnish"))
-    assert _shown(mat) == material_nodes.SCRIPT
+    links = sorted((lk.from_node.name, lk.to_node.name) for lk in mat.node_tree.links)
     osl = render(sc)
     sc.cycles.shading_system = False
-    nodes = render(sc)  # the render handler rewires before Cycles reads the material
-    assert _shown(mat) == material_nodes.GROUP
+    nodes = render(sc)
+    assert sorted((lk.from_node.name, lk.to_node.name) for lk in mat.node_tree.links) == links, "nothing rewired"
     lit = osl[..., :3] > 1e-3 * osl[..., :3].max()
     assert lit.sum() > 100
     rel = np.abs(nodes[..., :3] - osl[..., :3])[lit] / osl[..., :3][lit]
     assert np.median(rel) < 3e-5 and np.percentile(rel, 99) < 1e-3
-    sc.cycles.shading_system = True
-    assert recompile.rewire(sc) == 1 and _shown(mat) == material_nodes.SCRIPT
 
 
-def test_a_gpu_device_uses_the_node_group(addon):
-    """A GPU device runs no OSL unless it is OptiX."""
-    sc, sphere = sphere_scene()
-    mat = new_material(sphere)
+def test_the_osl_shader_switches_itself_in(addon):
+    """The Lamella node's group ends in a Mix Shader whose factor (0: the node group) the OSL
+    shader's ``lamella_osl`` output drives (the shader sets it to 1 where it runs)."""
+    from lamella.core.backends.osl import ENGINE_SWITCH
+
+    mat = addon.data.materials.new("switch")
     api.apply_stack(mat, suite.load("gold_coated"))
-    prefs = addon.context.preferences.addons["cycles"].preferences
-    before = prefs.compute_device_type
-    try:
-        sc.cycles.device = "GPU"
-        prefs.compute_device_type = "CUDA"
-        recompile.rewire(sc)
-        assert _shown(mat) == material_nodes.GROUP
-        prefs.compute_device_type = "OPTIX"
-        recompile.rewire(sc)
-        assert _shown(mat) == material_nodes.SCRIPT
-    finally:
-        prefs.compute_device_type = before
+    face, script, group = material_nodes.inner_nodes(mat)
+    mix = face.node_tree.nodes[material_nodes.face.SWITCH]
+    assert mix.inputs["Fac"].default_value == 0.0
+    assert mix.inputs["Fac"].links[0].from_socket == script.outputs[ENGINE_SWITCH]
+    assert mix.inputs[1].links[0].from_node == group and mix.inputs[2].links[0].from_node == script
+    assert f"{ENGINE_SWITCH} = 1.0;" in material_nodes.shader_source(mat)
 
 
 def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):
     sc, sphere = sphere_scene()
     mat = new_material(sphere)
     api.apply_stack(mat, suite.load("tinted_varnish"))
-    group = mat.node_tree.nodes[material_nodes.GROUP]
+    group = material_nodes.inner_nodes(mat)[2]
     tree = group.node_tree
     key = tree[material_nodes.STRUCTURE_KEY]
     tex = mat.node_tree.nodes.new("ShaderNodeTexNoise")
-    mat.node_tree.links.new(tex.outputs["Fac"], group.inputs["coat0_ior"])
+    mat.node_tree.links.new(tex.outputs["Fac"], api.input_socket(mat, 0, "ior"))
     d = suite.load("tinted_varnish").to_dict()
     api.apply_stack(mat, d)
     assert tree[material_nodes.STRUCTURE_KEY] != key, "linking a texture makes its parameter live: a structure edit"
@@ -76,7 +72,8 @@ def test_value_edits_keep_the_group_and_structure_edits_rebuild_it(addon):
     d["layers"].append({"type": "coat", "ior": 1.4, "roughness": 0.05})
     api.apply_stack(mat, d)
     assert tree[material_nodes.STRUCTURE_KEY] != key and group.node_tree is tree, "rebuilt in place"
-    assert group.inputs["coat0_ior"].is_linked, "a texture linked into a parameter socket stays linked"
+    assert api.input_socket(mat, 0, "ior").is_linked, "a texture linked into an input stays linked"
+    assert group.inputs["coat0_ior"].is_linked
 
 
 def test_a_copied_material_gets_its_own_group(addon):
@@ -85,8 +82,7 @@ def test_a_copied_material_gets_its_own_group(addon):
     api.apply_stack(mat, suite.load("gold_coated"))
     copy = mat.copy()
     api.apply_stack(copy, suite.load("three_coats"))
-    a = mat.node_tree.nodes[material_nodes.GROUP].node_tree
-    b = copy.node_tree.nodes[material_nodes.GROUP].node_tree
+    a, b = _group_tree(mat), _group_tree(copy)
     assert a is not b and a[material_nodes.STRUCTURE_KEY] != b[material_nodes.STRUCTURE_KEY]
     assert Stack.from_dict(api.read_stack(mat)).to_dict() == suite.load("gold_coated").to_dict()
 
@@ -111,7 +107,7 @@ def test_a_structure_edit_builds_the_group_only_when_something_renders_it(addon,
     sc, sphere = sphere_scene(res=16, spp=1)
     mat = new_material(sphere)
     api.apply_stack(mat, suite.load("three_coats"))
-    tree = mat.node_tree.nodes[material_nodes.GROUP].node_tree
+    tree = _group_tree(mat)
     key = tree[material_nodes.STRUCTURE_KEY]
     mat.lamella.coats[1].show = False  # a structure edit
     recompile.flush()
@@ -122,8 +118,7 @@ def test_a_structure_edit_builds_the_group_only_when_something_renders_it(addon,
     sc.cycles.shading_system = False
     render(sc)  # the group renders now: built first
     assert not recompile.stale_groups() and tree[material_nodes.STRUCTURE_KEY] != key
-    assert _shown(mat) == material_nodes.GROUP
-    assert not any(name.startswith("coat2_") for name in mat.node_tree.nodes[material_nodes.GROUP].inputs.keys())
+    assert not any(name.startswith("coat2_") for name in material_nodes.inner_nodes(mat)[2].inputs.keys())
 
     sc.cycles.shading_system = True
     key = tree[material_nodes.STRUCTURE_KEY]
@@ -138,7 +133,8 @@ def test_a_structure_edit_builds_the_group_only_when_something_renders_it(addon,
     assert len(json.loads(mat.lamella.compiled_json)["layers"]) == 4
     assert recompile.stale_groups() == [mat.name_full]
     recompile.flush_groups()
-    assert "coat3_ior" in mat.node_tree.nodes[material_nodes.GROUP].inputs, "flush_groups builds it"
+    assert "coat3_ior" in material_nodes.inner_nodes(mat)[2].inputs, "flush_groups builds it"
+    assert material_nodes.inner_nodes(mat)[2].inputs["coat3_ior"].is_linked, "and wires it"
 
 
 def test_the_group_shows_no_unlinked_value_inside_its_math(addon):
@@ -181,22 +177,21 @@ def test_sockets_speak_the_panels_units(addon, request, case, socket, value):
     mat = new_material(sphere)
     stack = suite.load(case)
     api.apply_stack(mat, stack)
-    script = mat.node_tree.nodes[material_nodes.SCRIPT]
-    assert "lut_dir" not in script.inputs or script.inputs["lut_dir"].hide
+    face, script, _ = material_nodes.inner_nodes(mat)
+    assert "lut_dir" not in script.inputs
     baked = {}
     for osl in (True, False):
         sc.cycles.shading_system = osl
         baked[osl] = render(sc)
     nt = mat.node_tree
-    sock = script.inputs[socket]
+    sock = api.input_socket(mat, *(("base", "albedo") if socket == "base_albedo" else (0, "roughness")))
     if sock.type == "RGBA":
         src = nt.nodes.new("ShaderNodeRGB")
         src.outputs[0].default_value = (*stack.base.albedo, 1.0)
     else:
         src = nt.nodes.new("ShaderNodeValue")
         src.outputs[0].default_value = stack.coats[0].roughness[0] ** 0.5
-    for node in (script, nt.nodes[material_nodes.GROUP]):
-        nt.links.new(src.outputs[0], node.inputs[socket])
+    nt.links.new(src.outputs[0], sock)
     recompile.compile_material(mat)  # a link is a structure edit
     assert mat.lamella.live_params == socket
     for osl in (True, False):

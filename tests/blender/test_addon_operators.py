@@ -107,11 +107,11 @@ def test_import_export_round_trip(addon, mat, tmp_path):
 def test_invalid_json_import_leaves_the_material_intact(addon, mat, tmp_path, content, message):
     bad = tmp_path / "bad.json"
     bad.write_text(content)
-    before, src = api.read_stack(mat), mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    before, src = api.read_stack(mat), material_nodes.shader_source(mat)
     with pytest.raises(RuntimeError, match=message):
         addon.ops.lamella.stack_import(material=mat.name, filepath=str(bad))
     assert api.read_stack(mat) == before
-    assert mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == src
+    assert material_nodes.shader_source(mat) == src
 
 
 def test_missing_material_is_reported(addon):

@@ -84,13 +84,13 @@ def test_undo_restores_the_previous_stack_and_redo_the_new_one(addon):
     mat = addon.data.materials.new("undo")
     api.apply_stack(mat, suite.load("gold_coated"))
     addon.ops.ed.undo_push(message="gold")
-    old_src = mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    old_src = material_nodes.shader_source(mat)
     addon.ops.lamella.preset_apply(material="undo", preset="varnished_wood")
     addon.ops.ed.undo_push(message="wood")
     addon.ops.ed.undo()
     mat = addon.data.materials["undo"]
     assert api.read_stack(mat)["base"]["type"] == "conductor"
-    assert mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == old_src
+    assert material_nodes.shader_source(mat) == old_src
     addon.ops.ed.redo()
     mat = addon.data.materials["undo"]
     assert api.read_stack(mat)["base"]["type"] == "diffuse"

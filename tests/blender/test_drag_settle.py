@@ -15,7 +15,7 @@ from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
 
 
 def _source(mat) -> str:
-    return mat.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    return material_nodes.shader_source(mat)
 
 
 def _stack(r: float) -> Stack:
@@ -31,7 +31,7 @@ def _fresh_source(r: float) -> str:
     from lamella.core import luts
     from lamella.core.backends.osl import osl_shader
 
-    return osl_shader(_stack(r), lut_dir=str(luts.DATA_DIR)).source
+    return osl_shader(_stack(r), lut_dir=str(luts.DATA_DIR), engine_switch=True).source
 
 
 def test_a_drag_keeps_the_grouping_and_settles_to_the_automatic_budget(addon):

@@ -76,3 +76,10 @@ def test_new_lobe_kinds_compile(case):
         assert 'microfacet("ggx", Normal,' in src
     assert (", 100.0, 1)" in src) == (case == "rough_glass_plate")
     osl_compile.compile_source(src, f"lamella_{case}")
+
+
+def test_a_table_folder_with_quotes_and_backslashes_compiles():
+    """The tables' folder is a string literal of the shader: any path a user has compiles."""
+    src = emit_osl(suite.load("gold_coated"), live=("coat0_roughness",), lut_dir='/tmp/a "quoted" \\ folder')
+    assert 'string lut_dir = "/tmp/a \\"quoted\\" \\\\ folder"' in src
+    osl_compile.compile_source(src, "quoted")

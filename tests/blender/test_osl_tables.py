@@ -113,9 +113,10 @@ def test_osl_reads_of_the_packed_table_equal_numpy(addon):
 
 
 def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon, scene):
-    """A .blend saved by a Lamella whose shader and node group read the tables' earlier layout
-    (the atlas alone, read at t) would read wrong rows now: both are reported and rebuilt at the
-    next render, as other damage is."""
+    """A .blend saved by a Lamella whose node group read the tables' earlier layout (the atlas
+    alone, read at t) would read wrong rows now: it is reported and rebuilt at the next render, as
+    other damage is. (The OSL shader inside a .blend reads no table file: a textured material whose
+    shader would renders its node group.)"""
     from lamella.blender import material_nodes, recompile
     from lamella_dev import suite
     from lamella.blender import api
@@ -125,32 +126,17 @@ def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon
     sc, sphere = scene
     m = new_material(sphere, "saved before the layout")
     api.apply_stack(m, suite.load("gold_coated"))
-    nt = m.node_tree
-    script = nt.nodes[material_nodes.SCRIPT]
-    value = nt.nodes.new("ShaderNodeValue")
+    value = m.node_tree.nodes.new("ShaderNodeValue")
     value.outputs[0].default_value = 0.3
-    for node in (script, nt.nodes[material_nodes.GROUP]):
-        nt.links.new(value.outputs[0], node.inputs["coat0_roughness"])
+    m.node_tree.links.new(value.outputs[0], api.input_socket(m, 0, "roughness"))
     recompile.compile_material(m)
     assert m.lamella.live_params == "coat0_roughness" and material_nodes.broken(m) is None
-    text = script.script
-    assert luts.LAYOUT_MARK in text.as_string()
-    # what an older Lamella saved: no layout mark in the shader, a group key without the layout
-    old = text.as_string().replace(luts.LAYOUT_MARK, "lamella LUT layout 1")
-    text.clear()
-    text.write(old)
-    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(old)
-    assert "older Lamella" in material_nodes.broken(m)
-    tree = nt.nodes[material_nodes.GROUP].node_tree
+    assert material_nodes.shader_source(m) is None, "no Script node reading files outside the .blend"
+    tree = material_nodes.inner_nodes(m)[2].node_tree
+    assert material_nodes.reads_old_tables("lamella_tex(x) // lamella LUT layout 1")
     tree[material_nodes.STRUCTURE_KEY] = tree[material_nodes.STRUCTURE_KEY].split(":", 1)[1]
-    text.clear()
-    text.write(old.replace("lamella LUT layout 1", luts.LAYOUT_MARK))
-    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(text.as_string())
-    assert "older Lamella" in material_nodes.broken(m)  # the group now
-    text.clear()
-    text.write(old)
-    text[material_nodes.SOURCE_KEY] = material_nodes.source_digest(old)
+    assert "older Lamella" in material_nodes.broken(m)
     recompile._before_render(sc)
     recompile.flush_groups()
     assert material_nodes.broken(m) is None
-    assert luts.LAYOUT_MARK in nt.nodes[material_nodes.SCRIPT].script.as_string()
+    assert material_nodes.inner_nodes(m)[2].node_tree[material_nodes.STRUCTURE_KEY].startswith(f"luts{luts.LAYOUT}:")

@@ -30,11 +30,11 @@ def test_values_beyond_the_limits_leave_the_material_as_it_was(addon, bad):
     m = addon.data.materials.new("keeps")
     api.apply_stack(m, suite.load("gold_coated"))
     before = api.read_stack_json(m)
-    source = m.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    source = material_nodes.shader_source(m)
     with pytest.raises(StackError):
         api.apply_stack(m, bad)
     assert api.read_stack_json(m) == before and m.lamella.status == "OK"
-    assert m.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == source
+    assert material_nodes.shader_source(m) == source
 
 
 def test_a_cache_entry_that_does_not_load_is_compiled_again(addon, tmp_path):
@@ -58,12 +58,13 @@ def test_edits_leave_one_shader_text_per_material_and_old_leaks_are_removed(addo
         m.lamella.coats[0].coat.ior = 1.3 + 0.01 * k
         recompile.flush()
     assert m.lamella.status == "OK"
-    script = m.node_tree.nodes[material_nodes.SCRIPT]
+    script = material_nodes.inner_nodes(m)[1]
     ours = [t for t in _shader_texts(addon) if t.name.startswith("lamella_edits")]
     assert ours == [script.script] and not script.script.use_fake_user
     assert "lamella_edits.osl.001" not in addon.data.texts
     addon.data.materials.remove(m)
-    assert material_nodes.drop_unused_texts() == 1  # the material's own text leaves with it
+    material_nodes.drop_unused_data()  # the material's own text leaves with its Lamella group
+    assert not [t for t in _shader_texts(addon) if t.name.startswith("lamella_edits")]
 
 
 def test_one_broken_material_does_not_cost_another_its_edits(addon, scene):
@@ -95,24 +96,25 @@ def test_a_name_in_any_language_compiles(addon):
         assert m.lamella.status == "OK" and api.read_stack(m)["name"] == name
 
 
-@pytest.mark.parametrize("damage", ["delete script", "edit text", "delete group", "unlink output", "delete table"])
+@pytest.mark.parametrize("damage", ["delete script", "edit text", "delete group", "delete the Lamella node",
+                                    "delete table"])
 def test_damaged_nodes_are_reported_and_repaired_at_the_next_render(addon, scene, damage):
     sc, sphere = scene
     m = new_material(sphere, f"damaged {damage}")
     api.apply_stack(m, suite.load("gold_coated"))
     good = render(sc)
-    nt = m.node_tree
+    face, script, group = material_nodes.inner_nodes(m)
+    inner = face.node_tree
     if damage == "delete script":
-        nt.nodes.remove(nt.nodes[material_nodes.SCRIPT])
+        inner.nodes.remove(script)
     elif damage == "edit text":
-        nt.nodes[material_nodes.SCRIPT].script.write("\n// a stray edit }")
+        script.script.write("\n// a stray edit }")
     elif damage == "delete group":
-        nt.nodes.remove(nt.nodes[material_nodes.GROUP])
-    elif damage == "unlink output":
-        out = nt.nodes[material_nodes.OUTPUT].inputs["Surface"]
-        nt.links.remove(out.links[0])
+        inner.nodes.remove(group)
+    elif damage == "delete the Lamella node":
+        m.node_tree.nodes.remove(face)
     else:
-        addon.data.images.remove(addon.data.images[material_nodes.table_image_name(m)])
+        addon.data.images.remove(addon.data.images[group.node_tree[material_nodes.TABLE_KEY]])
     why = material_nodes.broken(m)
     assert why, damage
     from lamella.blender import ui
@@ -146,7 +148,7 @@ def test_any_property_write_leaves_a_working_material(addon, writes):
     keeps the shader it had."""
     m = addon.data.materials.get("fuzzed") or addon.data.materials.new("fuzzed")
     api.apply_stack(m, suite.load("gold_coated"))
-    source = m.node_tree.nodes[material_nodes.SCRIPT].script.as_string()
+    source = material_nodes.shader_source(m)
     for layer, field, value in writes:
         coats = m.lamella.coats
         try:
@@ -157,6 +159,50 @@ def test_any_property_write_leaves_a_working_material(addon, writes):
     assert m.lamella.status in ("OK", "ERROR")
     if m.lamella.status == "ERROR":
         assert m.lamella.status_message and "coat 0" in m.lamella.status_message
-        assert m.node_tree.nodes[material_nodes.SCRIPT].script.as_string() == source
+        assert material_nodes.shader_source(m) == source
     else:
         assert material_nodes.broken(m, group_pending=m.name_full in recompile.stale_groups()) is None
+
+
+def test_an_unwritable_user_folder_compiles_without_a_cache_and_says_so_once(addon, tmp_path, monkeypatch, capfd):
+    """A read-only or full extension user folder (here a path through a file, which no one, root
+    included, can create folders under): every compile still works, built-in presets apply, and
+    the console says once why shaders are not cached."""
+    from lamella.blender import osl_compile, paths
+
+    blocked = tmp_path / "a_file"
+    blocked.write_text("")
+    monkeypatch.delenv("LAMELLA_CACHE", raising=False)
+    monkeypatch.setattr(osl_compile, "_cache_root", blocked / "cache")
+    monkeypatch.setattr(osl_compile, "_fallback", None)
+    monkeypatch.setattr(paths, "user_dir", lambda: blocked / "user")
+    capfd.readouterr()
+    addon.ops.lamella.material_new(name="unwritable", preset="lacquered_gold")
+    m = addon.data.materials["unwritable"]
+    assert m.lamella.status == "OK"
+    m.lamella.coats[0].coat.ior = 1.7
+    recompile.flush()
+    assert m.lamella.status == "OK" and m.lamella.coats[0].coat.ior == pytest.approx(1.7)
+    with pytest.raises(RuntimeError, match="cannot be written"):
+        addon.ops.lamella.preset_save(material=m.name, name="mine")
+    err = capfd.readouterr().err
+    assert err.count("cannot be written") == 1, err
+
+
+def test_names_of_any_length_and_any_path(addon, tmp_path):
+    """A material named at Blender's longest, a .blend saved in a folder whose name holds quotes
+    and backslashes: compiled, saved and opened again."""
+    name = "m" * 250
+    m = addon.data.materials.new(name)
+    m.use_fake_user = True
+    api.apply_stack(m, suite.load("gold_coated"))
+    assert m.lamella.status == "OK", m.lamella.status_message
+    folder = tmp_path / 'a "quoted" \\ folder'
+    folder.mkdir()
+    addon.ops.wm.save_as_mainfile(filepath=str(folder / "x.blend"))
+    full = m.name
+    addon.ops.wm.open_mainfile(filepath=str(folder / "x.blend"))
+    m = addon.data.materials[full]
+    m.lamella.coats[0].coat.ior = 1.6
+    recompile.flush()
+    assert m.lamella.status == "OK", m.lamella.status_message

@@ -76,3 +76,27 @@ def test_malformed_stack_files_exit_with_a_message_not_a_traceback(tmp_path, con
     r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "lobes", "x" * 5000, "--wi", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
+
+
+@pytest.mark.parametrize("args,message", [
+    (["render", "gold_coated", "--res", "0"], "--res must be from 1 to 16384, got 0"),
+    (["render", "gold_coated", "--res", "20000"], "--res must be from 1 to 16384, got 20000"),
+    (["render", "gold_coated", "--spp", "-1"], "--spp must be 1 or more, got -1"),
+    (["render", "gold_coated", "--spp", "many"], "--spp must be a whole number"),
+    (["image-references", "--res", "0"], "--res must be from 1"),
+])
+def test_render_counts_are_checked(args, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(args)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_apply_refuses_a_file_that_is_not_a_blend(tmp_path):
+    p = tmp_path / "scene.blend"
+    p.write_text("not a blend file")
+    r = subprocess.run([sys.executable, "-m", "lamella_dev.cli", "apply", "gold_coated", "--blend", str(p),
+                        "--material", "m", "-o", str(tmp_path / "out.blend")], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines()[-1] == f"lamella: apply: {p} is not a .blend file"

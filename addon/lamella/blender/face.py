@@ -184,13 +184,32 @@ def set_node_values(node, inputs: list[FaceInput]) -> None:
             _set(sock, i.value)
 
 
+def animated_paths(idblock) -> set:
+    """The data paths of ``idblock`` that a driver or the keyframes of its action move."""
+    ad = getattr(idblock, "animation_data", None)
+    if ad is None:
+        return set()
+    paths = {d.data_path for d in ad.drivers}
+    if ad.action is not None:
+        fcurves = getattr(ad.action, "fcurves", None)  # Blender before 5.0; later, the assigned slot's
+        if fcurves is None:
+            from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
+
+            bag = animdata_get_channelbag_for_assigned_slot(ad)
+            fcurves = bag.fcurves if bag is not None else ()
+        paths |= {fc.data_path for fc in fcurves}
+    return paths
+
+
 def linked_models(node, inputs: list[FaceInput]) -> tuple:
-    """The model sockets whose face inputs are linked (a texture, an attribute, another node):
-    what the shader must read live. Sorted."""
+    """The model sockets whose face inputs are linked (a texture, an attribute, another node) or
+    animated (keyframes or a driver on the input): what the shader must read live, so the
+    renderer reads them on every frame in every engine. Sorted."""
     out = set()
+    animated = animated_paths(node.id_data)
     for i in inputs:
         sock = node_socket(node, i.key)
-        if i.model and sock is not None and sock.is_linked:
+        if i.model and sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated):
             out.add(i.model)
     return tuple(sorted(out))
 
@@ -244,10 +263,14 @@ def _by_id(sockets, identifier):
 
 def wire(tree, inputs: list[FaceInput], script, group) -> None:
     """Rebuild the group's inside around ``script`` (the Script node, or None) and ``group`` (the
-    node group's node, or None), which are kept: everything else is made anew."""
+    node group's node, or None; one whose group waits to be built is kept, unwired), which are
+    kept: everything else is made anew."""
     nt = tree
     for n in [n for n in nt.nodes if n not in (script, group)]:
         nt.nodes.remove(n)
+    if group is not None and group.node_tree is None:  # kept for the build that waits (``recompile``)
+        group.location = (4 * X, -100.0)
+        group = None
     for link in list(nt.links):
         nt.links.remove(link)
     keys = {k: ident for ident, k in socket_keys(tree).items()}

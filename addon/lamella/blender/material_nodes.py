@@ -57,6 +57,12 @@ def inner_nodes(mat):
     return node, tree.nodes.get(SCRIPT), tree.nodes.get(GROUP)
 
 
+def shader_source(mat) -> str | None:
+    """The OSL source ``mat``'s Script node runs, or None where it has none."""
+    _, script, _ = inner_nodes(mat)
+    return script.script.as_string() if script is not None and script.script is not None else None
+
+
 def lamella_nodes(mat):
     """Every node Lamella made in ``mat``'s own tree (the face; an earlier version's nodes)."""
     nt = mat.node_tree
@@ -96,23 +102,28 @@ def ensure_face(mat):
     migrate_layout(mat)
     node = face_node(mat)
     if node is None:
-        xs = [n.location.x for n in nt.nodes]
-        ys = [n.location.y for n in nt.nodes]
+        empty = not nt.nodes
+        out = _output(nt)
         node = nt.nodes.new("ShaderNodeGroup")
         node.name = node.label = face.FACE
         node.width = 260.0
-        out = _output(nt)
-        node.location = (out.location.x - 320.0, out.location.y) if xs else (0.0, 0.0)
-        if not xs or not ys:
+        node.location = (out.location.x - 320.0, out.location.y)
+        if empty:
             out.location = (320.0, 0.0)
-    tree = node.node_tree
-    if tree is None:
+            node.location = (0.0, 0.0)
         tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
         tree[face.FACE_KEY] = face.FACE_LAYOUT
         node.node_tree = tree
-        out = _output(nt)
         face.sync_interface(tree, [])
-        nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+        # the surface the artist asked Lamella for; a Lamella node deleted and made again is
+        # linked only where the output shows nothing (what the artist linked there stays)
+        if not mat.lamella.compiled_json or not out.inputs["Surface"].is_linked:
+            nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+    tree = node.node_tree
+    if tree is None or not _is_face_tree(tree):
+        tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
+        tree[face.FACE_KEY] = face.FACE_LAYOUT
+        node.node_tree = tree
     elif _shared(tree):  # a copied or linked material's: its own from now on
         tree = tree.copy()
         tree.name = f"Lamella {mat.name}"
@@ -165,7 +176,7 @@ def drop_unused_data() -> int:
     from .node_group import CHUNK_PREFIX, SECTION_PREFIX
 
     own = (CHUNK_PREFIX, SECTION_PREFIX, ".lamella_nodes", "Lamella ")
-    gone = drop_unused_texts()
+    gone = 0
     while True:  # a group removed frees the nested groups it used
         groups = [g for g in bpy.data.node_groups if g.library is None and g.users == 0 and g.name.startswith(own)
                   and (not g.name.startswith("Lamella ") or STRUCTURE_KEY in g or face.FACE_KEY in g)]
@@ -174,6 +185,7 @@ def drop_unused_data() -> int:
         for g in groups:
             bpy.data.node_groups.remove(g)
         gone += len(groups)
+    gone += drop_unused_texts()  # after the groups: a Lamella group removed frees its Script node's text
     images = [i for i in bpy.data.images if i.library is None and i.users == 0 and i.name.startswith(TABLE_IMAGE_PREFIX)]
     for i in images:
         bpy.data.images.remove(i)
@@ -207,6 +219,14 @@ def input_socket(mat, layer, field: str):
     return sock
 
 
+def input_for_model(mat, model_socket: str):
+    """The Lamella node's input that feeds the model socket ``model_socket`` (``coat0_roughness``,
+    ``base_eta``) now, or None."""
+    node = face_node(mat)
+    i = next((i for i in face.face_inputs(mat.lamella) if i.model == model_socket), None)
+    return face.node_socket(node, i.key) if node is not None and i is not None else None
+
+
 def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) -> bool | None:
     """Put a compiled shader (``OslShader`` compiled to ``oso_path``) and the node group of the
     same staging into ``mat``'s face, and wire the face's inputs to both. The Script node is left
@@ -236,7 +256,7 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
         group = tree.nodes.new("ShaderNodeGroup")
         group.name, group.label, group.width = GROUP, "Lamella (nodes)", 240.0
     rebuilt = install_group(mat, group, stack, model, shader, build=build_group or script is None)
-    face.wire(tree, inputs, script, group if group.node_tree is not None else None)
+    face.wire(tree, inputs, script, group)
     return rebuilt
 
 

@@ -356,7 +356,10 @@ class LAMELLA_OT_preset_save(_MaterialOperator, bpy.types.Operator):
 
         if not self.name.strip():
             raise ValueError(rpt_("give the preset a name"))
-        path = presets.save_user(paths.user_presets_dir(), self.name.strip(), Stack.from_dict(api.read_stack(mat)))
+        folder = paths.user_presets_dir()
+        if folder is None:
+            raise OSError(rpt_("the extension's user folder cannot be written: presets cannot be saved"))
+        path = presets.save_user(folder, self.name.strip(), Stack.from_dict(api.read_stack(mat)))
         self.report({"INFO"}, rpt_("saved preset {name!r} to {path}").format(name=self.name, path=path))
 
 

@@ -32,11 +32,40 @@ def set_cache_root(path) -> None:
 
 
 def cache_dir() -> Path:
+    """The folder compiled shaders are cached in: the user folder's, or, where that cannot be
+    written (a read-only or full disk), a temporary folder of this session's (said once, on
+    stderr: shaders then compile again in every session; nothing else changes)."""
+    global _fallback
+    if _fallback is not None:
+        return _fallback
     base = os.environ.get("LAMELLA_CACHE") or _cache_root or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "lamella")
     d = Path(base) / "oso"
-    d.mkdir(parents=True, exist_ok=True)
-    return d
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".probe.{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+        return d
+    except OSError as e:
+        return _use_fallback(d, e)
+
+
+_fallback: Path | None = None
+
+
+def _use_fallback(d: Path, error: OSError) -> Path:
+    """Switch the cache to a temporary folder for the rest of the session, saying why once."""
+    global _fallback
+    import atexit
+    import shutil
+    import sys
+
+    _fallback = Path(tempfile.mkdtemp(prefix="lamella_oso_"))
+    atexit.register(shutil.rmtree, _fallback, True)
+    print(f"Lamella: the shader cache {d} cannot be written ({error.strerror or error}); shaders compile "
+          f"without a cache in this session", file=sys.stderr)
+    return _fallback
 
 
 def source_hash(source: str) -> str:
@@ -119,9 +148,13 @@ def compile_source(source: str, name: str = "shader") -> Path:
         loaded, log = capture_stderr(lambda: loads(out))
         if not loaded:
             raise OSLCompileError(format_errors(source, log, name) + "\n  (compiled, but the result does not load)")
-        tmp_oso = oso.with_suffix(f".{os.getpid()}.tmp")
-        tmp_oso.write_bytes(out.read_bytes())
-        tmp_oso.replace(oso)  # atomic: parallel test workers may compile the same shader
+        try:
+            tmp_oso = oso.with_suffix(f".{os.getpid()}.tmp")
+            tmp_oso.write_bytes(out.read_bytes())
+            tmp_oso.replace(oso)  # atomic: parallel test workers may compile the same shader
+        except OSError as e:  # the disk filled up, or the folder turned read-only
+            oso = _use_fallback(oso.parent, e) / oso.name
+            oso.write_bytes(out.read_bytes())
     return oso
 
 

@@ -32,11 +32,21 @@ def user_dir() -> Path:
     return d
 
 
-def user_presets_dir() -> Path:
-    d = user_dir() / "presets"
-    d.mkdir(parents=True, exist_ok=True)
-    return d
+def user_presets_dir() -> Path | None:
+    """The folder of the user's presets, or None where it cannot be made (a read-only user
+    folder: the built-in presets are all there is, and saving one says why)."""
+    try:
+        d = user_dir() / "presets"
+        d.mkdir(parents=True, exist_ok=True)
+        return d
+    except (OSError, RuntimeError):
+        return None
 
 
-def cache_dir() -> Path:
-    return user_dir() / "cache"
+def cache_dir() -> Path | None:
+    """The shader cache's folder in the user folder, or None where the user folder cannot be
+    made (the compiler then falls back on a temporary folder: ``osl_compile.cache_dir``)."""
+    try:
+        return user_dir() / "cache"
+    except (OSError, RuntimeError):
+        return None

@@ -3,8 +3,8 @@
 Layout, top to bottom (Blender's property split throughout):
 
 - status: compiled (model, time) / pending / the error, and what renders the material where it
-  is not the OSL shader (the node group in Cycles without OSL and in EEVEE), with a one-click
-  switch to Cycles with OSL;
+  is not the OSL shader (the node group in Cycles without OSL, in EEVEE, and wherever a linked
+  input reaches the look-up tables), with a one-click switch to Cycles with OSL;
 - presets menu, save-preset button and a menu of file actions (import/export JSON, export OSL);
 - the layer list (icon per kind, name, eye toggle to mute a layer) with add (a menu of coat
   templates), remove, duplicate and move buttons, then the base as the last row below it;
@@ -23,7 +23,7 @@ import bpy
 
 from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
-from .material_nodes import osl_usable
+from .material_nodes import inner_nodes, osl_usable
 from .operators import context_material
 from .i18n import iface_
 from .kind_hooks import hooks, layer_icon as kind_layer_icon
@@ -94,6 +94,10 @@ def draw_status(layout, context, mat) -> None:
                           "render black: check a render, and if it is black unlink an input (baked values cost "
                           "nothing) or use Cycles with OSL on the CPU.")
         note = note.format(**values)
+    elif sc.render.engine == "CYCLES" and inner_nodes(mat)[1] is None:
+        note = iface_("Cycles renders the node group: a linked input ({live}) reaches the model's look-up tables, "
+                      "which the node group carries inside the file and the OSL shader would read from files "
+                      "outside it.").format(live=s.live_params)
     elif sc.render.engine == "CYCLES":
         note = iface_("Cycles renders the OSL shader. With Open Shading Language off it renders the node group "
                       "instead (the same image where nothing linked is too large for it), and every shader of the "
@@ -104,7 +108,7 @@ def draw_status(layout, context, mat) -> None:
             note += " " + iface_("It reads its linked inputs from tables over their range: {tables} (values outside "
                                  "are clamped).").format(tables=s.node_tables)
     elif sc.render.engine != "CYCLES":
-        note, fix = iface_("Cycles or EEVEE render this material; this engine shows its other output."), True
+        note, fix = iface_("Cycles and EEVEE render this material; this engine does not."), True
     if note:
         col = box.column()
         _wrapped(col, note, "INFO")

@@ -351,7 +351,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
                 if declare == "all" or any(k in live_names for k in sk.params)]
     declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
     if uses_tables:
-        declared.append(ShaderParam("lut_dir", "string", f'"{lut_path}"'))
+        declared.append(ShaderParam("lut_dir", "string", _string_literal(lut_path)))
     if engine_switch:
         declared.append(ShaderParam(ENGINE_SWITCH, "float", "0.0", output=True))
     declared.append(ShaderParam("BSDF", "closure color", "0", output=True))
@@ -423,6 +423,11 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     ])
     return OslShader(source, all_params, live_names, traced.model, st, uses_tables, shader, tuple(declared),
                      tuple(sorted(p.files)), tuple(called))
+
+
+def _string_literal(text: str) -> str:
+    """``text`` as an OSL string literal (a folder may hold quotes and backslashes)."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def _socket_param(sk) -> ShaderParam:
