@@ -90,16 +90,18 @@ def _output(nt):
     return out
 
 
-def ensure_face(mat):
+def ensure_face(mat, show: bool = False):
     """(face node, face group) of ``mat``, made where missing (linked into the material's output,
-    in place of what it showed: the surface the artist asked Lamella for) and made ``mat``'s own
-    where it is shared with another material or linked from a library."""
+    in place of what it showed: the surface the artist asked Lamella for; a Lamella node the artist
+    deleted is made again and linked only where the output shows nothing, unless ``show``) and
+    made ``mat``'s own where it is shared with another material or linked from a library."""
     import bpy
 
     if mat.node_tree is None:
         mat.use_nodes = True
     nt = mat.node_tree
-    migrate_layout(mat)
+    if migrate_layout(mat):
+        return face_node(mat), face_node(mat).node_tree
     node = face_node(mat)
     if node is None:
         empty = not nt.nodes
@@ -117,7 +119,7 @@ def ensure_face(mat):
         face.sync_interface(tree, [])
         # the surface the artist asked Lamella for; a Lamella node deleted and made again is
         # linked only where the output shows nothing (what the artist linked there stays)
-        if not mat.lamella.compiled_json or not out.inputs["Surface"].is_linked:
+        if show or not mat.lamella.compiled_json or not out.inputs["Surface"].is_linked:
             nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     tree = node.node_tree
     if tree is None or not _is_face_tree(tree):
@@ -369,8 +371,8 @@ def migrate_layout(mat) -> bool:
     """Bring a material compiled by an earlier version (a Script node, a node group, a tangent and
     two engine-specific outputs in the material itself) to the face: its nodes go, the links
     artists made into their parameter sockets move to the face's inputs (by the layer each fed),
-    and the face is linked where the Cycles output's surface came from. Returns whether anything
-    changed."""
+    and the face is linked into the material's active output (the earlier version's outputs took
+    precedence over it, so what rendered was Lamella's). Returns whether anything changed."""
     nt = mat.node_tree
     if nt is None:
         return False
@@ -385,7 +387,8 @@ def migrate_layout(mat) -> bool:
                       if lk.from_node.name not in (OLD_TANGENT,) and s.name not in ("Normal", "Tangent", "lut_dir")]
     for n in old:
         nt.nodes.remove(n)
-    node, tree = ensure_face(mat) if face_node(mat) is None else (face_node(mat), face_node(mat).node_tree)
+    # what the earlier version's Cycles and EEVEE outputs showed, the active output shows now
+    node, tree = ensure_face(mat, show=True)
     inputs = face.face_inputs(mat.lamella)
     face.sync_interface(tree, inputs)
     by_model = {i.model: i.key for i in inputs if i.model}
