@@ -116,6 +116,9 @@ def sphere_material(sphere, name: str):
     return mat, nt, nt.nodes.new("ShaderNodeOutputMaterial")
 
 
+LAMELLA_NODE_ENGINES = ("lamella-osl", "lamella-svm", "lamella-eevee")
+
+
 def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=(),
                     live_axes="auto"):
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
@@ -151,6 +154,22 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
             sphere.users_scene[0].cycles.shading_system = False
         else:
             use_eevee(sphere.users_scene[0])
+    elif engine in LAMELLA_NODE_ENGINES:
+        # what an artist's material is: the extension's Lamella node (the Script node and the node
+        # group behind the switch the renderer resolves)
+        import lamella.blender
+        from lamella.blender import api
+
+        if not hasattr(bpy.types.Material, "lamella"):
+            lamella.blender.register()
+        if str(budget) != "auto":
+            mat.lamella.lobe_budget = str(budget)
+        api.apply_stack(mat, stack, model)
+        sc = sphere.users_scene[0]
+        if engine == "lamella-svm":
+            sc.cycles.shading_system = False
+        elif engine == "lamella-eevee":
+            use_eevee(sc)
     elif engine == "reference":
         raise ValueError("the reference engine builds geometry, not a material: use render_stack")
     elif engine in ("principled", "eevee-principled", "principled-svm"):

@@ -3,14 +3,16 @@
 ``author ZIP BLEND``: a stock-Blender session (the development copy blocked) installs the built
 zip, makes four spheres in one frame and saves the file:
   0 gold_coated through the batch API (no texture: the OSL shader where Cycles runs OSL),
-  1 a coat whose roughness a Noise texture drives, linked into the Lamella node's input,
+  1 a coat whose roughness a Noise texture drives, linked into the Lamella node's input, over a
+    base whose colour is keyframed in the panel (frame 1 warm, frame 3 cold),
   2 a copy of material 0 (``Material.copy()``) whose top coat was made rough and tinted in the
     panel,
   3 a new material with the stack of 2 (what 2 must render),
-renders the frame in Cycles with OSL, Cycles without OSL and EEVEE (before the copy's edit too)
-and saves the file with OSL on.
+renders the frame in Cycles with OSL, Cycles without OSL and EEVEE (before the copy's edit too,
+and on frame 3) and saves the file with OSL on, on frame 1.
 ``farm BLEND``: a render farm's Blender: neither the extension nor the checkout can be imported
-and no add-on is enabled; opens the file and renders it in the three engine paths.
+and no add-on is enabled; opens the file and renders it in the three engine paths, on the frame
+it was saved on and on frame 3.
 
 Prints one JSON line: for each engine path, the mean RGB of each sphere."""
 import json
@@ -112,6 +114,11 @@ def author(zip_path: Path, blend: Path) -> dict:
     rng.inputs["To Min"].default_value, rng.inputs["To Max"].default_value = 0.2, 0.8
     nt.links.new(noise.outputs["Fac"], rng.inputs["Value"])
     nt.links.new(rng.outputs["Result"], ext.input_socket(mats[1], 0, "roughness"))
+    base = mats[1].lamella.base.diffuse  # the panel's base colour, keyframed: warm on frame 1, cold on 3
+    for frame, colour in ((1, (0.8, 0.6, 0.3)), (3, (0.2, 0.4, 0.8))):
+        base.albedo = colour
+        mats[1].keyframe_insert("lamella.base.diffuse.albedo", frame=frame)
+    sc.frame_set(1)
     for sphere, mat in zip(spheres, mats):
         sphere.data.materials.append(mat)
     spheres[2].data.materials.append(mats[0])  # the copy-to-be shows the original for now
@@ -131,6 +138,9 @@ def author(zip_path: Path, blend: Path) -> dict:
     recompile.flush()
     found["status"] = {m.name: [m.lamella.status, m.lamella.status_message] for m in (*mats, copy, control)}
     found["author"] = render_all(sc, out, "author")
+    sc.frame_set(3)
+    found["author_frame3"] = render_all(sc, out, "author3")
+    sc.frame_set(1)  # saved on frame 1: the farm renders frame 3 from the file's animation alone
     # the scene's own HDRI stays where Blender keeps it (absolute): only Lamella's data must travel
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), relative_remap=False)
     return found
@@ -141,7 +151,10 @@ def farm(blend: Path) -> dict:
 
     bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
     enabled = [m.__name__ for m in addon_utils.modules() if addon_utils.check(m.__name__)[1]]
-    return {"farm": render_all(bpy.context.scene, blend.parent, "farm"),
+    sc = bpy.context.scene
+    farm = render_all(sc, blend.parent, "farm")
+    sc.frame_set(3)
+    return {"farm": farm, "farm_frame3": render_all(sc, blend.parent, "farm3"),
             "lamella_enabled": [m for m in enabled if "lamella" in m],
             "missing_files": sorted(i.filepath for i in bpy.data.images
                                     if i.source == "FILE" and i.packed_file is None

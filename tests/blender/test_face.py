@@ -191,3 +191,36 @@ def test_keyframes_on_an_input_render_on_every_frame(addon, engine, blender_engi
         _value_into(linked, api.input_socket(linked, 0, "roughness"), r)
         assert _rel(got[frame], _render_in(sc, blender_engine, osl)) < 1e-3, (engine, frame)
     assert _rel(got[1], got[3]) > 0.05
+
+
+def test_keyframes_and_drivers_on_panel_values_render_and_travel(addon, tmp_path):
+    """A coat's roughness keyframed in the panel (r 0.2 on frame 1, 0.6 on frame 3) and its IOR
+    driven by the frame render at their values on each frame in every engine, also after a coat is
+    added on top (the animation follows its coat), because the keys and the driver are copied onto
+    the Lamella node's inputs, which the renderer reads."""
+    sc, sphere = sphere_scene(res=24, spp=16)
+    stack = suite.load("gold_coated").to_dict()
+    mat = new_material(sphere, "panel_keyed")
+    api.apply_stack(mat, stack)
+    coat = mat.lamella.coats[0].coat
+    for frame, r in ((1, 0.2), (3, 0.6)):
+        coat.roughness = r
+        mat.keyframe_insert("lamella.coats[0].coat.roughness", frame=frame)
+    driver = mat.driver_add("lamella.coats[0].coat.ior").driver
+    driver.expression = "1.3 + 0.1 * frame"
+    addon.ops.lamella.layer_add(material=mat.name, template="dust")  # a coat on top: the animation stays on coat 1
+    mat.lamella.coats[0].show = False  # muted: the stack renders as before, its coat 0 the animated one
+    recompile.flush()
+    got = {}
+    for frame in (1, 3):
+        sc.frame_set(frame)
+        got[frame] = {e: _render_in(sc, b, o) for e, b, o in ENGINES}
+    assert mat.lamella.live_params == "coat0_ior, coat0_roughness"
+    for frame, r in ((1, 0.2), (3, 0.6)):
+        linked = new_material(sphere, f"panel_linked_{frame}")
+        api.apply_stack(linked, stack)
+        _value_into(linked, api.input_socket(linked, 0, "roughness"), r)
+        _value_into(linked, api.input_socket(linked, 0, "ior"), 1.3 + 0.1 * frame)
+        for e, b, o in ENGINES:
+            assert _rel(got[frame][e], _render_in(sc, b, o)) < 1e-3, (e, frame)
+    assert _rel(got[1]["cycles-osl"], got[3]["cycles-osl"]) > 0.05

@@ -63,6 +63,15 @@ def test_the_farm_renders_what_the_studio_rendered(life):
             assert _rel(farm, studio) < 0.01, (engine, k, farm, studio)
 
 
+def test_the_farm_renders_the_panels_animation(life):
+    """The base colour keyframed in the panel renders on frame 3 on the farm (the file was saved on
+    frame 1) as it did in the studio: the keys travel on the Lamella node."""
+    for engine in ENGINES:
+        farm, studio, frame1 = life["farm_frame3"][engine][1], life["author_frame3"][engine][1], life["author"][engine][1]
+        assert _rel(farm, studio) < 0.01, (engine, farm, studio)
+        assert _rel(studio, frame1) > 0.2, (engine, "frame 3 must look unlike frame 1")
+
+
 def test_the_engine_paths_agree(life):
     """Cycles without OSL renders the node group, which computes what the OSL shader does; EEVEE's
     own lighting differs (docs/extension.md), so it is held only to its measured offset."""

@@ -184,29 +184,12 @@ def set_node_values(node, inputs: list[FaceInput]) -> None:
             _set(sock, i.value)
 
 
-def animated_paths(idblock) -> set:
-    """The data paths of ``idblock`` that a driver or the keyframes of its action move."""
-    ad = getattr(idblock, "animation_data", None)
-    if ad is None:
-        return set()
-    paths = {d.data_path for d in ad.drivers}
-    if ad.action is not None:
-        fcurves = getattr(ad.action, "fcurves", None)  # Blender before 5.0; later, the assigned slot's
-        if fcurves is None:
-            from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
-
-            bag = animdata_get_channelbag_for_assigned_slot(ad)
-            fcurves = bag.fcurves if bag is not None else ()
-        paths |= {fc.data_path for fc in fcurves}
-    return paths
-
-
-def linked_models(node, inputs: list[FaceInput]) -> tuple:
+def linked_models(node, inputs: list[FaceInput], animated=frozenset()) -> tuple:
     """The model sockets whose face inputs are linked (a texture, an attribute, another node) or
     animated (keyframes or a driver on the input): what the shader must read live, so the
-    renderer reads them on every frame in every engine. Sorted."""
+    renderer reads them on every frame in every engine; ``animated``: the animated data paths of
+    the node's tree, ``animation.animated_paths``). Sorted."""
     out = set()
-    animated = animated_paths(node.id_data)
     for i in inputs:
         sock = node_socket(node, i.key)
         if i.model and sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated):

@@ -197,10 +197,27 @@ def drop_unused_data() -> int:
 def linked_sockets(mat) -> tuple:
     """The model sockets whose face inputs are linked in ``mat``, sorted: a staged shader reads
     their parameters live and bakes every other value."""
+    from .animation import animated_paths
+
     node = face_node(mat)
     if node is None or node.node_tree is None:
         return ()
-    return face.linked_models(node, face.face_inputs(mat.lamella))
+    return face.linked_models(node, face.face_inputs(mat.lamella), animated_paths(node.id_data))
+
+
+def sync_inputs(mat) -> None:
+    """Bring an existing Lamella node's inputs to the panel's layers (their keyframes and drivers
+    following their layers: ``animation.remap``) and mirror the panel's animation onto them, so
+    that what is linked or animated is known before a compile."""
+    from . import animation
+
+    node = face_node(mat)
+    if node is None or node.node_tree is None or _shared(node.node_tree):
+        return
+    before = animation.input_order(node)
+    face.sync_interface(node.node_tree, face.face_inputs(mat.lamella))
+    animation.remap(node, before)
+    animation.mirror_panel(mat)
 
 
 def input_socket(mat, layer, field: str):
@@ -237,9 +254,13 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
     node group was rebuilt, None when it was left out of date."""
     from .osl_compile import assign_compiled
 
+    from . import animation
+
     node, tree = ensure_face(mat)
     inputs = face.face_inputs(mat.lamella)
+    before = animation.input_order(node)
     face.sync_interface(tree, inputs)
+    animation.remap(node, before)
     face.set_node_values(node, inputs)
     script = tree.nodes.get(SCRIPT)
     if shader.tables:
@@ -259,6 +280,7 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
         group.name, group.label, group.width = GROUP, "Lamella (nodes)", 240.0
     rebuilt = install_group(mat, group, stack, model, shader, build=build_group or script is None)
     face.wire(tree, inputs, script, group)
+    animation.mirror_panel(mat)
     return rebuilt
 
 

@@ -13,6 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..core.stack import MAX_COATS, Stack, StackError
+from .animation import following_layers
 from .i18n import rpt_
 
 
@@ -209,7 +210,7 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
         kind = COAT_KINDS[t["layer"].get("type", "coat")]
         layer = kind.parse(f"template {t['id']}", t["layer"])
         at = min(s.active_index, len(s.coats)) if len(s.coats) else 0
-        with recompile.suspended():
+        with recompile.suspended(), following_layers(mat):
             item = s.coats.add()
             item.kind = kind.type
             item.uid = new_uid()
@@ -245,7 +246,7 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
         if not 0 <= s.active_index < len(s.coats):
             raise ValueError(rpt_("select a coat to remove (the active index {index} is no coat; there are {n})").format(
                 index=s.active_index, n=len(s.coats)))
-        with recompile.suspended():
+        with recompile.suspended(), following_layers(mat):
             s.coats.remove(s.active_index)
             s.active_index = max(0, min(s.active_index, len(s.coats) - 1))
         self.compiled(mat)
@@ -270,7 +271,7 @@ class LAMELLA_OT_layer_move(_MaterialOperator, bpy.types.Operator):
         if not 0 <= j < len(s.coats):
             raise ValueError((rpt_("coat {i} is already the top coat") if self.direction == "UP"
                               else rpt_("coat {i} is already the lowest coat")).format(i=i))
-        with recompile.suspended():
+        with recompile.suspended(), following_layers(mat):
             s.coats.move(i, j)
             s.active_index = j
         self.compiled(mat)
@@ -291,7 +292,7 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
             raise ValueError(rpt_("select a coat to duplicate"))
         if len(s.coats) >= MAX_COATS:
             raise ValueError(rpt_("a stack holds at most {n} coats").format(n=MAX_COATS))
-        with recompile.suspended():
+        with recompile.suspended(), following_layers(mat):
             src = s.active_index
             item = s.coats.add()
             copy_layer(s.coats[src], item)

@@ -283,6 +283,8 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     settings = mat.lamella
     t0 = time.perf_counter()
     ensure_uids(settings)
+    if not versioning.refuses_edits(settings):
+        material_nodes.sync_inputs(mat)  # what is linked or animated, by layer, before the live set is read
     if settings.compiled_json:
         _guarded(mat, "checking the nodes", lambda: repair_needed(mat))
     if versioning.refuses_edits(settings):  # a newer Lamella's data: keep it and its shader as saved
@@ -346,13 +348,30 @@ def links_changed(mat) -> bool:
 @persistent
 def _flush_before(*_args):
     """Before a save: every pending shader and node group, so the file holds both up to date (and
-    a drag's materials merged anew: ``settle``)."""
+    a drag's materials merged anew: ``settle``), and the panel's animation copied onto the Lamella
+    nodes (``animation``), so the file renders it without the extension."""
+    for mat in _mirror_animation():
+        if mat.name_full not in _pending and _guarded(mat, "reading the links", lambda m=mat: links_changed(m), False):
+            _pending[mat.name_full] = True
     if _pending:
         flush()
     if _unsettled:
         settle()
     if _stale_groups:
         flush_groups()
+
+
+def _mirror_animation() -> list:
+    """Copy every Lamella material's panel animation onto its Lamella node again (keys may have
+    been edited since); returns the materials that have any."""
+    from .animation import mirror_panel
+
+    out = []
+    for mat in bpy.data.materials:
+        if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json and mat.animation_data is not None:
+            _guarded(mat, "copying the panel's animation", lambda m=mat: mirror_panel(m))
+            out.append(mat)
+    return out
 
 
 _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles ran OSL) at the last look
@@ -362,6 +381,7 @@ _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles r
 def _before_render(scene, *_args):
     from .material_nodes import group_needed
 
+    _mirror_animation()
     for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
         if never_compiled(mat):
             _pending[mat.name_full] = True

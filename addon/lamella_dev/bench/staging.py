@@ -119,7 +119,10 @@ COST_VARIANTS = (("principled (OSL)", "OSL", dict(engine="principled")),
                  ("principled (SVM)", "SVM", dict(engine="principled-svm")),
                  ("staged nodes (SVM), auto", "SVM", dict(engine="cycles-nodes")),
                  ("principled (EEVEE)", "EEVEE", dict(engine="eevee-principled")),
-                 ("staged nodes (EEVEE), auto", "EEVEE", dict(engine="eevee")))
+                 ("staged nodes (EEVEE), auto", "EEVEE", dict(engine="eevee")),
+                 ("the Lamella node (OSL)", "OSL", dict(engine="lamella-osl")),
+                 ("the Lamella node (SVM)", "SVM", dict(engine="lamella-svm")),
+                 ("the Lamella node (EEVEE)", "EEVEE", dict(engine="lamella-eevee")))
 
 
 def _timed_render(stack, engine, budget="auto", staged=True, osl=None):
@@ -135,7 +138,7 @@ def _timed_render(stack, engine, budget="auto", staged=True, osl=None):
     if osl is not None:
         sc.cycles.shading_system = osl
     _, first = render_scene(sc)
-    _, second = render_scene(sc) if engine.startswith("eevee") else (None, first)
+    _, second = render_scene(sc) if "eevee" in engine else (None, first)
     return first, second
 
 
