@@ -185,6 +185,10 @@ def cmd_bench(a) -> int:
         from .bench import staging
 
         print(staging.run(BENCH_DIR).read_text())
+    elif a.what == "scene":
+        from .bench import scene
+
+        print(scene.run(BENCH_DIR, count=a.count or scene.COUNT).read_text())
     elif a.what == "holdout":
         from .bench import holdout
 
@@ -462,9 +466,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks")
     p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "holdout", "eevee-anisotropy",
                                        "eevee-closures", "eevee-gap", "shells",
-                                       "trapping", "lobe-floor", "pareto", "materialx"])
+                                       "trapping", "lobe-floor", "pareto", "materialx", "scene"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
     p.add_argument("--quick", action="store_true", help="pareto: two stacks, 64 px, two sample counts")
+    p.add_argument("--count", type=_count("--count"), help="scene: how many objects and materials (default 200)")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
     p.add_argument("--references", action="store_true",
