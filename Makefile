@@ -30,7 +30,7 @@ demo: setup
 	$(PY) demo_blend/build_showcase.py --out out $(DEMO_FLAGS)
 
 test: setup
-	$(VENV)/bin/pytest -q -n 2
+	$(VENV)/bin/pytest -q -n 2 --dist loadgroup
 
 # The extension zip, built and validated by Blender's own extension tool (in the bpy wheel).
 package: setup
@@ -52,7 +52,7 @@ test-blender-versions:
 		test -x $$venv/bin/python || $(PYTHON311) -m venv $$venv || exit 1; \
 		$$venv/bin/python -m pip install -q -e ".[test]" "bpy==$$v" || exit 1; \
 		$$venv/bin/python tools/install_bpy_pth.py || exit 1; \
-		$$venv/bin/python -m pytest -q -n 2 -p no:cacheprovider $(ADDON_TESTS) || exit 1; \
+		$$venv/bin/python -m pytest -q -n 2 --dist loadgroup -p no:cacheprovider $(ADDON_TESTS) || exit 1; \
 	done
 
 bench-accuracy: setup

@@ -11,7 +11,10 @@ from lamella.blender import api, material_nodes, recompile  # noqa: E402
 
 from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
 
-ENGINES = (("cycles-osl", "CYCLES", True), ("cycles-nodes", "CYCLES", False), ("eevee", "BLENDER_EEVEE", False))
+# Cycles with OSL runs the Script node, Cycles without OSL the node group EEVEE runs too: EEVEE's
+# first render of each material compiles its shader (tens of seconds here), so EEVEE renders these
+# materials in the life test (test_material_life.py) and in test_addon_nodes.py.
+ENGINES = (("cycles-osl", "CYCLES", True), ("cycles-nodes", "CYCLES", False))
 
 
 def _render_in(sc, engine, osl):
@@ -224,3 +227,31 @@ def test_keyframes_and_drivers_on_panel_values_render_and_travel(addon, tmp_path
         for e, b, o in ENGINES:
             assert _rel(got[frame][e], _render_in(sc, b, o)) < 1e-3, (e, frame)
     assert _rel(got[1]["cycles-osl"], got[3]["cycles-osl"]) > 0.05
+
+
+@pytest.mark.parametrize("engine,blender_engine,osl", ENGINES)
+def test_the_conductors_artist_colours_are_inputs_in_its_artist_mode(addon, engine, blender_engine, osl):
+    """In the conductor's artist mode the Lamella node shows Reflectivity and Edge Tint (not eta
+    and k), and a colour linked into Reflectivity renders as the same colour set in the panel
+    (Gulbrandsen 2014's conversion, made in nodes inside the Lamella node)."""
+    sc, sphere = sphere_scene(res=24, spp=16)
+    stack = suite.load("gold_coated").to_dict()
+    renders = {}
+    for name in ("linked", "panel", "other"):
+        mat = new_material(sphere, f"artist_{name}")
+        api.apply_stack(mat, stack)
+        base = mat.lamella.base.conductor
+        base.mode = "ARTIST"
+        base.reflectivity, base.edge_tint = (0.9, 0.6, 0.3) if name != "other" else (0.5, 0.5, 0.9), (0.9, 0.8, 0.5)
+        recompile.flush()
+        names = [s.name for s in material_nodes.face_node(mat).inputs]
+        assert "Base: Reflectivity" in names and "Base: Edge Tint" in names and "Base: IOR (n)" not in names
+        if name == "linked":
+            base.reflectivity = (0.2, 0.2, 0.2)  # the panel's value, which the link overrides
+            recompile.flush()
+            _value_into(mat, api.input_socket(mat, "base", "reflectivity"), (0.9, 0.6, 0.3))
+        renders[name] = _render_in(sc, blender_engine, osl)
+        if name == "linked":
+            assert mat.lamella.live_params == "base_eta, base_k"
+    assert _rel(renders["linked"], renders["panel"]) < 0.01, engine
+    assert _rel(renders["other"], renders["panel"]) > 0.05

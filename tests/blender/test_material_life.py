@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 
 pytest.importorskip("bpy")
+# one worker runs the whole module: its two sessions (about three minutes) run once
+pytestmark = pytest.mark.xdist_group("material_life")
 
 SESSION = Path(__file__).with_name("material_life_session.py")
 ENGINES = ("cycles-osl", "cycles-nodes", "eevee")

@@ -92,3 +92,72 @@ def draw(layout, pg):
 def written(pg) -> None:
     """A stack written into the panel holds eta and k as given: the Custom mode shows them."""
     pg.mode = "CUSTOM"
+
+
+def face_inputs(pg, inputs: list, uid: str, label: str) -> list:
+    """In the artist mode the Lamella node shows the reflectivity and edge tint, and makes eta and
+    k from them inside (``gulbrandsen_nodes``), so a texture on the colours drives the metal."""
+    if pg.mode != "ARTIST":
+        return inputs
+    from dataclasses import replace
+
+    from .face import FaceInput
+
+    out = []
+    for i in inputs:
+        field = i.key.split("/", 1)[1]
+        if field == "eta":
+            keys = (f"{uid}/reflectivity", f"{uid}/edge_tint")
+            derived = () if i.model is None else (
+                ((i.model, i.model[: -len("eta")] + "k"), keys, lambda nt, s: gulbrandsen_nodes(nt, *s)),)
+            out.append(FaceInput(keys[0], f"{label}: Reflectivity", "NodeSocketColor", "NONE",
+                                 tuple(pg.reflectivity), 0.0, 1.0, None, derived))
+            out.append(FaceInput(keys[1], f"{label}: Edge Tint", "NodeSocketColor", "NONE",
+                                 tuple(pg.edge_tint), 0.0, 1.0, None))
+        elif field != "k":
+            out.append(replace(i))
+    return out
+
+
+def gulbrandsen_nodes(nt, r, g):
+    """(eta, k) sockets from reflectivity ``r`` and edge tint ``g`` colour sockets, channel-wise:
+    Gulbrandsen 2014, Section 3 (``metals.artistic_to_complex``, the same formulas in nodes)."""
+    x = [1200.0, -900.0]
+
+    def vm(op, a, b=None):
+        n = nt.nodes.new("ShaderNodeVectorMath")
+        n.operation, n.hide, n.location = op, True, tuple(x)
+        x[1] -= 30.0
+        for sock, v in zip(n.inputs, (a, b)):
+            if v is None:
+                continue
+            if isinstance(v, (int, float)):
+                sock.default_value = (v, v, v)
+            else:
+                nt.links.new(v, sock)
+        return n.outputs[0]
+
+    def sqrt(v):
+        sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+        sep.hide, sep.location = True, tuple(x)
+        nt.links.new(v, sep.inputs[0])
+        comb = nt.nodes.new("ShaderNodeCombineXYZ")
+        comb.hide, comb.location = True, (x[0] + 300.0, x[1])
+        for k in range(3):
+            m = nt.nodes.new("ShaderNodeMath")
+            m.operation, m.hide, m.location = "SQRT", True, (x[0] + 150.0, x[1] - 30.0 * k)
+            nt.links.new(sep.outputs[k], m.inputs[0])
+            nt.links.new(m.outputs[0], comb.inputs[k])
+        x[1] -= 100.0
+        return comb.outputs[0]
+
+    r = vm("MINIMUM", r, metals.R_MAX)
+    sr = sqrt(r)
+    one_minus_r = vm("SUBTRACT", 1.0, r)
+    n = vm("ADD", vm("MULTIPLY", g, vm("DIVIDE", one_minus_r, vm("ADD", r, 1.0))),
+           vm("MULTIPLY", vm("SUBTRACT", 1.0, g), vm("DIVIDE", vm("ADD", sr, 1.0), vm("SUBTRACT", 1.0, sr))))
+    np1, nm1 = vm("ADD", n, 1.0), vm("SUBTRACT", n, 1.0)
+    k2 = vm("DIVIDE", vm("SUBTRACT", vm("MULTIPLY", r, vm("MULTIPLY", np1, np1)), vm("MULTIPLY", nm1, nm1)),
+            one_minus_r)
+    k = sqrt(vm("MAXIMUM", k2, 0.0))
+    return n, k

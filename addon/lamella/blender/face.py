@@ -51,7 +51,9 @@ class FaceInput:
     belongs to; ``name`` the label shown; ``socket_type`` a Blender interface socket type and
     ``subtype``; ``value`` the panel's value (a float or an RGB tuple); ``lo``/``hi`` the hard
     limits a linked value is clamped to (None: open); ``model`` the model socket it feeds now
-    (``core.backends.sockets``: ``coat0_roughness``), None for a muted layer."""
+    (``core.backends.sockets``: ``coat0_roughness``), None for a muted layer or an input that
+    feeds the model through a conversion: ``derived`` lists those (a kind's Blender hook: the
+    conductor's artist colours make its eta and k)."""
 
     key: str
     name: str
@@ -61,6 +63,7 @@ class FaceInput:
     lo: float | None
     hi: float | None
     model: str | None
+    derived: tuple = ()  # ((model sockets), (input keys they are made from), build(nt, sources) -> sockets), ...
 
 
 def _field_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[FaceInput]:
@@ -84,16 +87,24 @@ def _field_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[Fa
     return out
 
 
+def _layer_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[FaceInput]:
+    from .kind_hooks import hooks
+
+    inputs = _field_inputs(kind, pg, uid, label, prefix)
+    hook = hooks(kind.type).face_inputs
+    return hook(pg, inputs, uid, label) if hook is not None else inputs
+
+
 def face_inputs(settings) -> list[FaceInput]:
     """The face's inputs for a material's Lamella ``settings``: every coat top to bottom (a muted
     one's feed nothing), then the base; Normal and Tangent are added by ``sync_interface``."""
     out, shown = [], 0
     for item in settings.coats:
         prefix = f"coat{shown}" if item.show else None
-        out += _field_inputs(COAT_KINDS[item.kind], item.settings(), item.uid, item.name, prefix)
+        out += _layer_inputs(COAT_KINDS[item.kind], item.settings(), item.uid, item.name, prefix)
         shown += int(item.show)
     base = BASE_KINDS[settings.base.kind]
-    out += _field_inputs(base, settings.base.settings(), BASE_UID, "Base", "base")
+    out += _layer_inputs(base, settings.base.settings(), BASE_UID, "Base", "base")
     return out
 
 
@@ -189,11 +200,17 @@ def linked_models(node, inputs: list[FaceInput], animated=frozenset()) -> tuple:
     animated (keyframes or a driver on the input): what the shader must read live, so the
     renderer reads them on every frame in every engine; ``animated``: the animated data paths of
     the node's tree, ``animation.animated_paths``). Sorted."""
+    def live(key):
+        sock = node_socket(node, key)
+        return sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated)
+
     out = set()
     for i in inputs:
-        sock = node_socket(node, i.key)
-        if i.model and sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated):
+        if i.model and live(i.key):
             out.add(i.model)
+        for models, keys, _ in i.derived:
+            if any(live(k) for k in keys):
+                out.update(models)
     return tuple(sorted(out))
 
 
@@ -271,9 +288,21 @@ def wire(tree, inputs: list[FaceInput], script, group) -> None:
     tangent = _pick_vector(nt, port(TANGENT), radial.outputs["Tangent"], (X, 160.0))
     feeds = {NORMAL: normal, TANGENT: tangent}
     read = {sock.name for node in (script, group) if node is not None for sock in node.inputs}
-    for k, i in enumerate(inputs):
+    spec = {i.key: (k, i) for k, i in enumerate(inputs)}
+    clamped = {}
+
+    def clamp(key):
+        if key not in clamped:
+            k, i = spec[key]
+            clamped[key] = _clamped(nt, port(key), i, -40.0 * k)
+        return clamped[key]
+
+    for i in inputs:
         if i.model in read:
-            feeds[i.model] = _clamped(nt, port(i.key), i, -40.0 * k)
+            feeds[i.model] = clamp(i.key)
+        for models, sources, build in i.derived:
+            if any(m in read for m in models):
+                feeds.update(zip(models, build(nt, [clamp(key) for key in sources])))
     for node in (script, group):
         if node is None:
             continue

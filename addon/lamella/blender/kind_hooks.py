@@ -8,7 +8,9 @@ written into and read from the panel all come from its schema (``LayerKind.field
 conductor's colour modes; ``draw(layout, pg)``: drawn above the fields, returns the names of the
 fields left editable (None: all); ``icon(pg)``: one layer's icon where it depends on its values
 (a coat that scatters shows as a medium); ``written(pg)``: after a stack's layer was written into
-the PropertyGroup.
+the PropertyGroup; ``face_inputs(pg, inputs, uid, label)``: the layer's inputs on the material's
+Lamella node in place of its fields' (``face.FaceInput``; e.g. the conductor's artist colours,
+converted to eta and k inside the node).
 
 Hooks are registered before the extension registers its properties (the built-in ones below; an
 extension kind's module calls :func:`register` beside ``lamella.core.layers.register``).
@@ -29,6 +31,7 @@ class KindHooks:
     draw: Callable | None = None
     icon: Callable | None = None
     written: Callable | None = None
+    face_inputs: Callable | None = None
 
 
 NO_HOOKS = KindHooks()
@@ -59,4 +62,4 @@ def _coat_icon(pg) -> str:
 
 register("coat", KindHooks(icon=_coat_icon))
 register("conductor", KindHooks(properties=conductor_modes.properties, draw=conductor_modes.draw,
-                                written=conductor_modes.written))
+                                written=conductor_modes.written, face_inputs=conductor_modes.face_inputs))
