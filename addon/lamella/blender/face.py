@@ -15,9 +15,9 @@ muted or duplicated. A muted coat keeps its inputs (and their links); they feed 
 
 Inside the group (rebuilt by ``wire``): each input clamped to its field's hard limits (a linked
 value behaves as a panel value; a colour above a reflectance's 1 adds no energy), the normal
-(the Normal input where linked, else the shading normal) and the tangent (the Tangent input where
-linked, else radial about the object's z, as the panel's default), then two renderings of the
-same model side by side:
+(the Normal input where linked, else the shading normal; the node group makes that choice itself) and the tangent (the
+Tangent input where linked, else radial about the object's z, as the panel's default), then two
+renderings of the same model side by side:
 
 - the node group (``GROUP``: ``node_group``), what Cycles without OSL and EEVEE render;
 - the OSL shader (``SCRIPT``), where it needs no file outside the .blend (a staged shader whose
@@ -308,7 +308,9 @@ def wire(tree, inputs: list[FaceInput], script, group) -> None:
             continue
         node.location = (4 * X, 300.0 if node is script else -100.0)
         for sock in node.inputs:
-            src = feeds.get(sock.name)
+            # the node group falls back on the shading normal itself (its frame); the OSL
+            # shader's Normal must be a normal, and the nodes that make it run only under OSL
+            src = port(NORMAL) if node is group and sock.name == NORMAL else feeds.get(sock.name)
             if src is not None:
                 nt.links.new(src, sock)
     gout = nt.nodes.new("NodeGroupOutput")

@@ -130,7 +130,7 @@ class LAMELLA_OT_material_new(_MaterialOperator, bpy.types.Operator):
 
 
 class LAMELLA_OT_enable(_MaterialOperator, bpy.types.Operator):
-    """Make this material a Lamella material (its own nodes stay; a Cycles output is added)"""
+    """Make this material a Lamella material (its own nodes stay; the Lamella node feeds its output)"""
 
     bl_idname = "lamella.enable"
     bl_label = "Use Lamella"
