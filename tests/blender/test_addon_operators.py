@@ -40,7 +40,7 @@ def test_material_new_enable_and_disable(addon):
     addon.ops.lamella.enable(material=plain.name)
     assert plain.lamella.enabled and api.read_stack(plain)["base"]["type"] == "conductor"
     addon.ops.lamella.disable(material=plain.name)
-    assert not plain.lamella.enabled and all(n is None for n in material_nodes.lamella_nodes(plain))
+    assert not plain.lamella.enabled and material_nodes.lamella_nodes(plain) == []
 
 
 def test_layer_add_remove_move_duplicate(addon, mat):

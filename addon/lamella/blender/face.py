@@ -33,6 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from .osl_compile import set_socket
 
 FACE = "Lamella"  # the face node's name in the material
 FACE_KEY = "lamella_face"  # a face group's layout version
@@ -160,20 +161,10 @@ def sync_interface(tree, inputs: list[FaceInput]) -> None:
             if i.socket_type == "NodeSocketFloat":
                 s.min_value = -3.0e38 if i.lo is None else i.lo
                 s.max_value = 3.0e38 if i.hi is None else i.hi
-            _set(s, i.value)
+            set_socket(s, i.value)
         if s.position != first + pos:  # in order, every move is upward: it lands where it is asked to
             tree.interface.move(s, first + pos)
     tree[SOCKETS_KEY] = {s.identifier: key for key, s in have.items()}
-
-
-def _set(sock, value) -> None:
-    if isinstance(value, tuple) and len(sock.default_value) == 4:
-        value = (*value, 1.0)
-    if isinstance(value, tuple):
-        if tuple(sock.default_value) != tuple(value):
-            sock.default_value = value
-    elif sock.default_value != value:
-        sock.default_value = value
 
 
 def node_socket(node, key: str):
@@ -192,7 +183,7 @@ def set_node_values(node, inputs: list[FaceInput]) -> None:
     for i in inputs:
         sock = node_socket(node, i.key)
         if sock is not None:
-            _set(sock, i.value)
+            set_socket(sock, i.value)
 
 
 def linked_models(node, inputs: list[FaceInput], animated=frozenset()) -> tuple:
