@@ -6,6 +6,8 @@ import math
 import time
 from pathlib import Path
 
+from lamella.core.param_id import r_from_alpha
+
 
 ENGINES = ("cycles-osl", "cycles-nodes", "eevee", "principled", "eevee-principled", "principled-svm", "reference")
 SCENES = ("sphere-env", "sphere-sun", "white-furnace")
@@ -204,12 +206,12 @@ def _principled(nt, stack):
         p.inputs["Base Color"].default_value = (*f0, 1.0)
         p.inputs["Metallic"].default_value = 1.0
         ax, ay = b.roughness
-        p.inputs["Roughness"].default_value = math.sqrt(math.sqrt(ax * ay))
+        p.inputs["Roughness"].default_value = r_from_alpha(math.sqrt(ax * ay))
     if stack.coats:
         top = stack.coats[0]
         p.inputs["Coat Weight"].default_value = 1.0
         p.inputs["Coat IOR"].default_value = top.ior
-        p.inputs["Coat Roughness"].default_value = math.sqrt(math.sqrt(top.roughness[0] * top.roughness[1]))
+        p.inputs["Coat Roughness"].default_value = r_from_alpha(math.sqrt(top.roughness[0] * top.roughness[1]))
     return p
 
 

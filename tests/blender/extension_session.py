@@ -4,7 +4,6 @@ blocked) installs the built zip into the user repository, enables it, and uses i
 
 Usage: python extension_session.py ZIP OUT_DIR. Prints one JSON line of findings."""
 import json
-import os
 import sys
 from pathlib import Path
 

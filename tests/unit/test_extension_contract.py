@@ -23,6 +23,7 @@ from lamella.core.backends.trace import Tracer
 from lamella.core.layers import BASE_KINDS, COAT_KINDS, StackError
 from lamella.core.layers.schema import FLOAT, Field, layer_kind
 from lamella.core.models import MODELS, UnsupportedStack
+from lamella.core.param_id import ParamId
 
 from . import extension_kinds
 from .test_node_graph import _compare, _directions
@@ -218,9 +219,11 @@ def test_the_traced_operation_folds_keeps_the_precision_and_prints():
     y = ops.absorbance(x)
     assert y.dtype == np.float32
     np.testing.assert_array_equal(y, -np.log(x))
-    p = t.param("p", 0.5)
+    p = t.param(ParamId(0, "p"), 0.5)
     e = t.absorbance(p)
-    assert t.evaluate([e], NumpyOps(), {"p": np.array([0.25, 0.5])})[0].tolist() == [math.log(4.0), math.log(2.0)]
+    assert t.evaluate([e], NumpyOps(), {"coat0_p": np.array([0.25, 0.5])})[0].tolist() == [math.log(4.0), math.log(2.0)]
+    with pytest.raises(TypeError, match="ParamId"):
+        t.param("coat0_p", 0.5)  # a parameter says what it is
 
 
 def test_registries_refuse_clashes_and_incomplete_kinds():

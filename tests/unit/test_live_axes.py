@@ -15,6 +15,7 @@ from lamella_dev.bench.node_cost import textured_sockets
 from lamella_dev.bench.recompile import STACKS
 from lamella_dev.bench.recompile import _stack as _case_stack
 from lamella.core.backends import staging
+from lamella.core.backends.closures import trace_closures
 from lamella.core.backends.live_axes import MAX_AXES, axis_of, lookup_axes
 from lamella.core.backends.node_graph import emit_plan, evaluate_plan
 from lamella.core.backends.numpy_ops import NumpyOps
@@ -27,13 +28,14 @@ def _stack(label):
 
 def test_axes_come_from_the_schema():
     stack = _stack("4 coats + medium")
-    rough = axis_of(stack, "coat1_alpha_x", 0.3)
-    assert (rough.lo, rough.hi, rough.warp) == (0.0, 1.0, "sine")
-    eta = axis_of(stack, "base_eta_g", 0.374)
+    ids = trace_closures(stack).tracer.ids
+    rough = axis_of(stack, ids["coat1_alpha_x"], 0.3)
+    assert (rough.param, rough.lo, rough.hi, rough.warp) == ("coat1_alpha_x", 0.0, 1.0, "sine")
+    eta = axis_of(stack, ids["base_eta_g"], 0.374)
     assert (eta.lo, eta.hi, eta.warp) == (0.01, 5.0, "sqrt")
-    assert axis_of(stack, "base_eta_g", 7.5).hi == 7.5  # widened to hold the stack's own value
-    assert axis_of(stack, "coat0_g", 0.0).warp == "linear"
-    assert axis_of(stack, "coat1_rotation", 0.3) is None
+    assert axis_of(stack, ids["base_eta_g"], 7.5).hi == 7.5  # widened to hold the stack's own value
+    assert axis_of(stack, ids["coat0_g"], 0.0).warp == "linear"
+    assert axis_of(stack, ids["coat1_rotation"], 0.3) is None
     for axis in (rough, eta):
         x = axis.values()
         assert x[0] == axis.lo and np.isclose(x[-1], axis.hi) and np.all(np.diff(x) > 0)

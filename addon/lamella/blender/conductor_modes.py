@@ -104,17 +104,17 @@ def face_inputs(pg, inputs: list, uid: str, label: str) -> list:
     from .face import FaceInput
 
     out = []
+    k_model = next(i.model for i in inputs if i.field == "k")
     for i in inputs:
-        field = i.key.split("/", 1)[1]
-        if field == "eta":
+        if i.field == "eta":
             keys = (f"{uid}/reflectivity", f"{uid}/edge_tint")
             derived = () if i.model is None else (
-                ((i.model, i.model[: -len("eta")] + "k"), keys, lambda nt, s: gulbrandsen_nodes(nt, *s)),)
+                ((i.model, k_model), keys, lambda nt, s: gulbrandsen_nodes(nt, *s)),)
             out.append(FaceInput(keys[0], f"{label}: Reflectivity", "NodeSocketColor", "NONE",
-                                 tuple(pg.reflectivity), 0.0, 1.0, None, derived))
+                                 tuple(pg.reflectivity), 0.0, 1.0, None, derived, field="reflectivity"))
             out.append(FaceInput(keys[1], f"{label}: Edge Tint", "NodeSocketColor", "NONE",
-                                 tuple(pg.edge_tint), 0.0, 1.0, None))
-        elif field != "k":
+                                 tuple(pg.edge_tint), 0.0, 1.0, None, field="edge_tint"))
+        elif i.field != "k":
             out.append(replace(i))
     return out
 

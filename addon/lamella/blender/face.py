@@ -33,6 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.param_id import AXES, socket_name
 from .osl_compile import set_socket
 
 FACE = "Lamella"  # the face node's name in the material
@@ -65,33 +66,42 @@ class FaceInput:
     hi: float | None
     model: str | None
     derived: tuple = ()  # ((model sockets), (input keys they are made from), build(nt, sources) -> sockets), ...
+    field: str = ""  # the layer field it sets (schema name)
+    axis: str = ""  # "x", "y": which roughness of an anisotropic interface
 
 
-def _field_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[FaceInput]:
+def _field_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool) -> list[FaceInput]:
+    """``layer``: the layer's index in the model (a coat's among the shown coats; None: the
+    base); ``shown``: whether the layer reaches the model (a muted coat's inputs feed nothing)."""
+    def model(field: str, axis: str = "") -> str | None:
+        return socket_name(layer, field, axis) if shown else None
+
     out = []
     for f in kind.fields:
-        model = f"{prefix}_{f.name}" if prefix else None
         name = f"{label}: {f.ui_label}"
         if f.type in (FLOAT, ANGLE):
             out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "ANGLE" if f.type == ANGLE else "NONE",
-                                 float(getattr(pg, f.name)), f.lo, f.hi, model))
+                                 float(getattr(pg, f.name)), f.lo, f.hi, model(f.name), field=f.name))
         elif f.type == RGB:
             out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketColor", "NONE",
-                                 tuple(float(x) for x in getattr(pg, f.name)), f.lo, f.hi, model))
+                                 tuple(float(x) for x in getattr(pg, f.name)), f.lo, f.hi, model(f.name),
+                                 field=f.name))
         elif f.type == ROUGHNESS:
+            x, y = AXES
             aniso = bool(getattr(pg, f"{f.name}_anisotropic"))
             out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "FACTOR", float(getattr(pg, f.name)),
-                                 0.0, 1.0, (f"{model}_x" if aniso else model) if model else None))
+                                 0.0, 1.0, model(f.name, x if aniso else ""), field=f.name, axis=x if aniso else ""))
             if aniso:
                 out.append(FaceInput(f"{uid}/{f.name}_y", f"{name} Y", "NodeSocketFloat", "FACTOR",
-                                     float(getattr(pg, f"{f.name}_y")), 0.0, 1.0, f"{model}_y" if model else None))
+                                     float(getattr(pg, f"{f.name}_y")), 0.0, 1.0, model(f.name, y),
+                                     field=f.name, axis=y))
     return out
 
 
-def _layer_inputs(kind, pg, uid: str, label: str, prefix: str | None) -> list[FaceInput]:
+def _layer_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool) -> list[FaceInput]:
     from .kind_hooks import hooks
 
-    inputs = _field_inputs(kind, pg, uid, label, prefix)
+    inputs = _field_inputs(kind, pg, uid, label, layer, shown)
     hook = hooks(kind.type).face_inputs
     return hook(pg, inputs, uid, label) if hook is not None else inputs
 
@@ -101,11 +111,10 @@ def face_inputs(settings) -> list[FaceInput]:
     one's feed nothing), then the base; Normal and Tangent are added by ``sync_interface``."""
     out, shown = [], 0
     for item in settings.coats:
-        prefix = f"coat{shown}" if item.show else None
-        out += _layer_inputs(COAT_KINDS[item.kind], item.settings(), item.uid, item.name, prefix)
+        out += _layer_inputs(COAT_KINDS[item.kind], item.settings(), item.uid, item.name, shown, bool(item.show))
         shown += int(item.show)
     base = BASE_KINDS[settings.base.kind]
-    out += _layer_inputs(base, settings.base.settings(), BASE_UID, "Base", "base")
+    out += _layer_inputs(base, settings.base.settings(), BASE_UID, "Base", None, True)
     return out
 
 

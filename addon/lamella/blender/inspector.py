@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ..core.param_id import r_from_alpha
+
 SIZE = 160  # preview image is SIZE x SIZE pixels
 N_ANGLES = 181
 BACKGROUND = (0.09, 0.09, 0.09)
@@ -78,7 +80,7 @@ def lobe_rows(stack, model: str, theta: float) -> list[dict]:
     for k, kind in enumerate(lb.kinds):
         ax, ay = float(lb.alpha_x[0, k]), float(lb.alpha_y[0, k])
         rows.append({"kind": kind, "weight": tuple(float(w) for w in lb.weight[0, k]),
-                     "roughness": math.sqrt(math.sqrt(max(ax * ay, 0.0))),
+                     "roughness": r_from_alpha(math.sqrt(max(ax * ay, 0.0))),
                      "anisotropy": (ax - ay) / (ax + ay) if ax + ay > 0 else 0.0,
                      "rotation": float(lb.rotation[0, k])})
     return rows

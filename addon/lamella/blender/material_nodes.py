@@ -369,13 +369,13 @@ def install_group(mat, node, stack, model: str, shader, build: bool = True) -> b
         node_group.build_group(plan, tree.name, tree)
         tree[STRUCTURE_KEY] = key
         mat.lamella.node_live_values = live_values(plan)
-        ranges = socket_ranges(plan.staged.axis_tables, plan.params) if plan.staged is not None else {}
+        ranges = socket_ranges(plan.staged.axis_tables, plan.ids) if plan.staged is not None else {}
         mat.lamella.node_tables = ", ".join(f"{name} {lo:.3g} to {hi:.3g}" for name, (lo, hi) in ranges.items())
         node.node_tree = tree
     else:
         for name, pixels in plan.images.items():
             node_group.material_table_image(name, pixels)
-    for sk in sockets(plan.params):
+    for sk in sockets(plan.ids, plan.params):
         sock = node.inputs.get(sk.name)
         if sock is not None:
             set_socket(sock, sk.value)

@@ -367,7 +367,7 @@ def build_group(plan: Plan, name: str, tree=None):
     frame = _frame(g, gin, tangent_input=True, view_frame=plan.frame == "view")
     wi = frame[4]
     leaf_src = {}
-    convert = by_param(plan.params)
+    convert = by_param(plan.ids)
     colours = {}
     for k, leaf in enumerate(plan.leaves):
         if leaf in ("wi_x", "wi_y", "wi_z"):
@@ -465,7 +465,7 @@ def _facing_ior(g, ior: float):
 def _sync_interface(tree, plan: Plan):
     """Make the group's sockets the plan's parameters (sorted), Normal, Tangent and BSDF, keeping
     the sockets that stay (and so the links into them from the material)."""
-    shown = {sk.name: sk for sk in sockets(plan.params)}
+    shown = {sk.name: sk for sk in sockets(plan.ids)}
     want = [(sk.name, "NodeSocketColor" if sk.kind == "color" else "NodeSocketFloat") for sk in shown.values()]
     want += [("Normal", "NodeSocketVector"), ("Tangent", "NodeSocketVector")]
     items = {(s.name, s.in_out): s for s in tree.interface.items_tree if s.item_type == "SOCKET"}

@@ -28,6 +28,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from ..core.models import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.param_id import r_from_alpha
 from . import kind_hooks
 
 def _on_edit(self, context):
@@ -73,12 +74,12 @@ def field_properties(f, update=_on_edit) -> dict:
                 f"{f.description.split(':')[0]}")
         return {
             f.name: FloatProperty(name=label, description=base + " (along the tangent when anisotropic)",
-                                  default=math.sqrt(ax), min=0.0, max=1.0, subtype="FACTOR", update=update),
+                                  default=r_from_alpha(ax), min=0.0, max=1.0, subtype="FACTOR", update=update),
             f"{f.name}_anisotropic": BoolProperty(
                 name="Anisotropic", description="Different roughness along and across the tangent (brushed)",
                 default=ax != ay, update=update),
             f"{f.name}_y": FloatProperty(name=f"{label} Y", description=base + " across the tangent",
-                                         default=math.sqrt(ay), min=0.0, max=1.0, subtype="FACTOR", update=update),
+                                         default=r_from_alpha(ay), min=0.0, max=1.0, subtype="FACTOR", update=update),
         }
     raise TypeError(f"no Blender property for field type {f.type!r}")
 

@@ -7,10 +7,10 @@ the numbers that were written.
 """
 from __future__ import annotations
 
-import math
 import uuid
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.param_id import alpha_from_r, r_from_alpha
 from ..core.stack import Stack
 from .kind_hooks import hooks
 
@@ -34,9 +34,9 @@ def kind_values(kind, pg) -> dict:
         elif f.type == ROUGHNESS:
             rx = getattr(pg, f.name)
             if getattr(pg, f"{f.name}_anisotropic"):
-                d[f.name] = [_r6(rx * rx), _r6(getattr(pg, f"{f.name}_y") ** 2)]
+                d[f.name] = [_r6(alpha_from_r(rx)), _r6(alpha_from_r(getattr(pg, f"{f.name}_y")))]
             else:
-                d[f.name] = _r6(rx * rx)
+                d[f.name] = _r6(alpha_from_r(rx))
     return d
 
 
@@ -52,8 +52,8 @@ def write_kind(kind, pg, layer) -> None:
         elif f.type == ROUGHNESS:
             ax, ay = v
             setattr(pg, f"{f.name}_anisotropic", ax != ay)
-            setattr(pg, f.name, math.sqrt(ax))
-            setattr(pg, f"{f.name}_y", math.sqrt(ay))
+            setattr(pg, f.name, r_from_alpha(ax))
+            setattr(pg, f"{f.name}_y", r_from_alpha(ay))
     written = hooks(kind.type).written
     if written is not None:
         written(pg)

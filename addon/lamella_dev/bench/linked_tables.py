@@ -22,39 +22,39 @@ from lamella.core import Stack, api
 from .. import suite
 from lamella.core.backends import staging
 from lamella.core.backends.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
+from lamella.core.param_id import AXES, COLOUR_CHANNELS
 from . import BENCH_DIR
 
 ANGLES = (0.0, 30.0, 60.0, 80.0)
 DRAWS = 12
 
 
-def with_values(stack: Stack, values: dict) -> Stack:
-    """``stack`` with the linked parameters (roughness alphas, base eta channels) at ``values``."""
+def with_values(stack: Stack, values: dict, ids: dict) -> Stack:
+    """``stack`` with the parameters ``values`` (name -> model value; ``ids``: name -> ``ParamId``,
+    what each is) set in its layers."""
     d = stack.to_dict()
     for p, v in values.items():
-        if p.startswith("base_eta_"):
-            eta = list(d["base"]["eta"])
-            eta["rgb".index(p[-1])] = float(v)
-            d["base"]["eta"] = eta
-            continue
-        layer = d["layers"][int(p[4:p.index("_")])]
-        r = layer["roughness"]
-        r = list(r) if isinstance(r, (list, tuple)) else [r, r]
-        if p.endswith("_x"):
-            r[0] = float(v)
-        elif p.endswith("_y"):
-            r[1] = float(v)
+        pid = ids[p]
+        layer = d["base"] if pid.layer is None else d["layers"][pid.layer]
+        if pid.is_roughness:
+            r = layer[pid.field]
+            r = list(r) if isinstance(r, (list, tuple)) else [r, r]
+            if pid.channel:
+                r[AXES.index(pid.channel)] = float(v)
+            else:
+                r = [float(v), float(v)]
+            layer[pid.field] = r
+        elif pid.is_colour:
+            c = list(layer[pid.field])
+            c[COLOUR_CHANNELS.index(pid.channel)] = float(v)
+            layer[pid.field] = c
         else:
-            r = [float(v), float(v)]
-        layer["roughness"] = r
+            layer[pid.field] = float(v)
     return Stack.from_dict(d)
 
 
-def _draw(rng, live) -> dict:
-    out = {}
-    for p in live:
-        out[p] = rng.uniform(0.1, 0.95) ** 2 if "_alpha" in p else rng.uniform(0.05, 2.0)
-    return out
+def _draw(rng, live, ids) -> dict:
+    return {p: rng.uniform(0.1, 0.95) ** 2 if ids[p].is_roughness else rng.uniform(0.05, 2.0) for p in live}
 
 
 def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list[dict]:
@@ -76,8 +76,8 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
         rng = np.random.default_rng(seed)
         errors = {"tables": [], "traced": []}
         for _ in range(draws):
-            values = _draw(rng, tab.live)
-            model = with_values(stack, values)
+            values = _draw(rng, tab.live, tab.ids)
+            model = with_values(stack, values, tab.ids)
             worst = {k: 0.0 for k in errors}
             for theta in ANGLES:
                 wi = suite.incident(theta)

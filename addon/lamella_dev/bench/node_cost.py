@@ -75,14 +75,12 @@ def textured_sockets(stack) -> list[str]:
     """Textures on two coat roughnesses (the first two coats) and the base colour: the sockets a
     material with such links reads live."""
     from lamella.core.backends.closures import trace_closures
-    from lamella.core.backends.sockets import socket_names
+    from lamella.core.backends.sockets import sockets
 
-    t = trace_closures(stack).tracer
-    names = socket_names({k: 0.0 for k in t.params})
-    out = []
-    for i in range(min(2, len(stack.coats))):
-        out.append(next(n for n in names if n.startswith(f"coat{i}_roughness")))
-    out.append("base_albedo" if "base_albedo" in names else "base_eta")
+    shown = sockets(trace_closures(stack).tracer.ids)
+    out = [next(sk.name for sk in shown if sk.layer == i and sk.field == "roughness")
+           for i in range(min(2, len(stack.coats)))]
+    out.append(next(sk.name for sk in shown if sk.layer is None and sk.field in ("albedo", "eta")))
     return out
 
 
@@ -93,7 +91,7 @@ def linked_rows() -> list[dict]:
     import numpy as np
 
     from lamella.core.backends.node_graph import emit_plan, live_values
-    from ..render import assign_material, build_scene, render_scene
+    from ..render import assign_material, build_scene
 
     rows = []
     for label, case in STACKS:

@@ -28,12 +28,12 @@ def complex_index(ops, r, g):
     return n, ops.sqrt(ops.max(k2, 0.0))
 
 
-def params(ops, prefix: str, base) -> dict:
-    r = rgb_param(ops, f"{prefix}_reflectivity", base.reflectivity)
-    g = rgb_param(ops, f"{prefix}_edge_tint", base.edge_tint)
+def params(ops, slot, base) -> dict:
+    r = rgb_param(ops, slot, "reflectivity", base.reflectivity)
+    g = rgb_param(ops, slot, "edge_tint", base.edge_tint)
     pairs = [complex_index(ops, rc, gc) for rc, gc in zip(r, g)]
     return {"eta": RGBValue(*(n for n, _ in pairs)), "k": RGBValue(*(k for _, k in pairs)),
-            **roughness_params(ops, prefix, base.roughness, base.rotation)}
+            **roughness_params(ops, slot, base.roughness, base.rotation)}
 
 
 KIND = layer_kind("artist_metal", "base", "ArtistMetal", FIELDS, __doc__, params, conductor.response,

@@ -3,9 +3,8 @@ normal, as artists pick it, rather than by an absorption coefficient. It is a co
 whose absorption is the colour's absorbance (``absorbance``, Beer-Lambert), so every model
 renders it as that coat."""
 from lamella.core import layers
-from lamella.core.layers.params import roughness_params
+from lamella.core.layers.params import field_param, rgb_param, roughness_params
 from lamella.core.layers.schema import ANGLE, ANGLE_MAX, FLOAT, IOR_MAX, IOR_MIN, RGB, ROUGHNESS, Field, layer_kind
-from lamella.core.models.rgb import RGB as RGBValue
 
 COLOR_MIN = 1e-4  # an absorbance of 9.2 along the normal: black for any render
 
@@ -25,12 +24,11 @@ def _has_absorption(self) -> bool:
     return any(c < 1.0 for c in self.color)
 
 
-def params(ops, prefix: str, layer) -> dict:
-    p = {"ior": ops.param(f"{prefix}_ior", layer.ior), **roughness_params(ops, prefix, layer.roughness, layer.rotation)}
+def params(ops, slot, layer) -> dict:
+    p = {"ior": field_param(ops, slot, "ior", layer.ior), **roughness_params(ops, slot, layer.roughness, layer.rotation)}
     if layer.has_absorption:
         p["thickness"] = 1.0
-        p["sigma_a"] = RGBValue(*(ops.absorbance(ops.param(f"{prefix}_color_{ch}", c))
-                                  for ch, c in zip("rgb", layer.color)))
+        p["sigma_a"] = rgb_param(ops, slot, "color", layer.color).map(ops.absorbance)
     return p
 
 

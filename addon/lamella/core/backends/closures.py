@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from .. import lobe_kinds
 from ..models import resolve
+from ..models.adding_doubling import layer_params
 from ..stack import Stack
 from .trace import Tracer
 
@@ -42,9 +43,7 @@ def declared_params(stack) -> dict:
     in the order they declare them. A kind's ``params`` may compute with its parameters (a colour
     turned into an absorption), so they are traced, which costs only those few nodes."""
     t = Tracer()
-    for i, c in enumerate(stack.coats):
-        c.kind.params(t, f"coat{i}", c)
-    stack.base.kind.params(t, "base", stack.base)
+    layer_params(t, stack)
     return dict(t.defaults)
 
 

@@ -22,12 +22,12 @@ rotation stays traced).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..layers.schema import ANGLE, RGB, ROUGHNESS
+from ..layers.schema import ANGLE
+from ..param_id import ParamId, r_from_alpha
 from ..stack import Stack
 
 N_AXIS = 17  # nodes along a parameter axis (bench/linked_tables.md: the error and size they give)
@@ -63,9 +63,6 @@ class LiveAxis:
         return ops.sqrt(u) if self.warp == "sqrt" else u
 
 
-_LAYER = re.compile(r"^(coat(\d+)|base)_(.+)$")
-
-
 def axis_nodes(axis: LiveAxis, dims: int) -> int:
     """The nodes of ``axis`` in a table over ``dims`` parameters: ``N_AXIS``, but
     ``N_AXIS_WIDE`` along an index or a colour (eta, k: the model is smooth in them) in a table
@@ -73,29 +70,17 @@ def axis_nodes(axis: LiveAxis, dims: int) -> int:
     return N_AXIS_WIDE if dims >= 3 and axis.warp != "sine" else N_AXIS
 
 
-def field_of(stack: Stack, param: str):
-    """The schema field (``layers.schema.Field``) that model parameter ``param`` comes from
-    (``coat1_alpha_x`` -> coat 1's roughness, ``base_eta_g`` -> the base's eta), or None."""
-    m = _LAYER.match(param)
-    if m is None:
-        return None
-    layer = stack.base if m.group(1) == "base" else stack.coats[int(m.group(2))]
-    rest = m.group(3)
-    for f in layer.kind.fields:
-        if f.type == ROUGHNESS and rest in ("alpha", "alpha_x", "alpha_y"):
-            return f
-        if f.type == RGB and rest in (f"{f.name}_r", f"{f.name}_g", f"{f.name}_b"):
-            return f
-        if f.type not in (ROUGHNESS, RGB) and rest == f.name:
-            return f
-    return None
+def field_of(stack: Stack, pid: ParamId):
+    """The schema field (``layers.schema.Field``) that model parameter ``pid`` comes from."""
+    layer = stack.base if pid.layer is None else stack.coats[pid.layer]
+    return next(f for f in layer.kind.fields if f.name == pid.field)
 
 
-def axis_of(stack: Stack, param: str, value: float, n: int | None = None) -> LiveAxis | None:
-    """The axis of ``param`` for ``stack`` (its value ``value``), or None where the parameter gets
-    none (an angle, or a parameter no field describes)."""
-    f = field_of(stack, param)
-    if f is None or f.type == ANGLE:
+def axis_of(stack: Stack, pid: ParamId, value: float, n: int | None = None) -> LiveAxis | None:
+    """The axis of parameter ``pid`` for ``stack`` (its value ``value``), or None where the
+    parameter gets none (an angle)."""
+    f = field_of(stack, pid)
+    if f.type == ANGLE:
         return None
     lo, hi = f.soft if f.soft is not None else (f.lo, f.hi)
     lo, hi = min(lo, value), max(hi, value)
@@ -106,23 +91,20 @@ def axis_of(stack: Stack, param: str, value: float, n: int | None = None) -> Liv
         warp = "sine"
     else:
         warp = "sqrt" if f.lo >= 0.0 else "linear"
-    return LiveAxis(param, float(lo), float(hi), n or N_AXIS, warp)
+    return LiveAxis(pid.name, float(lo), float(hi), n or N_AXIS, warp)
 
 
-def socket_ranges(axis_tables, params: dict) -> dict:
-    """The range each linked socket's tables span, in the socket's units (a roughness as r =
-    sqrt(alpha), ``sockets``): socket name -> (lo, hi), over every axis of ``axis_tables`` that
-    reads one of its parameters (a colour: the widest of its channels')."""
-    from .sockets import by_param
-
-    conv = by_param(params)
+def socket_ranges(axis_tables, ids: dict) -> dict:
+    """The range each linked socket's tables span, in the socket's units (a roughness as r,
+    ``sockets``): socket name -> (lo, hi), over every axis of ``axis_tables`` that reads one of
+    its parameters (``ids``: name -> ``ParamId``; a colour: the widest of its channels')."""
     out: dict = {}
     for tab in axis_tables:
         for a in tab.axes:
-            sk, _ = conv[a.param]
-            lo, hi = (math.sqrt(a.lo), math.sqrt(a.hi)) if sk.convert == "square" else (a.lo, a.hi)
-            old = out.get(sk.name, (lo, hi))
-            out[sk.name] = (min(old[0], lo), max(old[1], hi))
+            pid = ids[a.param]
+            lo, hi = (r_from_alpha(a.lo), r_from_alpha(a.hi)) if pid.is_roughness else (a.lo, a.hi)
+            old = out.get(pid.socket, (lo, hi))
+            out[pid.socket] = (min(old[0], lo), max(old[1], hi))
     return dict(sorted(out.items()))
 
 

@@ -68,6 +68,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 from ..models import fresnel
+from ..param_id import layer_label, layer_prefix
 from ..stack import Stack
 from .numpy_ops import NumpyOps
 
@@ -278,34 +279,34 @@ def _coupling_warnings(stack: Stack, warn) -> None:
              "interfaces, no adding-doubling statistics; the look of the Lamella models is approximated")
     for i, c in enumerate(stack.coats):
         if c.roughness != (0.0, 0.0):
-            warn(f"coat {i}", "roughness", "the lobes below are not widened by this rough interface (MaterialX "
+            warn(i, "roughness", "the lobes below are not widened by this rough interface (MaterialX "
                  "keeps each closure's own roughness)")
         if c.has_scattering:
-            warn(f"coat {i}", ("sigma_s", "g"), "scattering media cannot be expressed in MaterialX (a layer's VDF "
+            warn(i, ("sigma_s", "g"), "scattering media cannot be expressed in MaterialX (a layer's VDF "
                  "is a closed object's interior, with no thickness); dropped")
 
 
 def _warner():
-    warnings: list[str] = []
+    """A list of warnings and the ``warn(layer, field, message)`` that adds to it: ``layer`` is
+    "stack", a coat's index (0 = top) or "base"; ``field`` a field name, a tuple of them or None."""
+    warnings: list[tuple[int, str]] = []
 
     def warn(layer, field, message):
+        order, where = ((0, "stack") if layer == "stack" else (1000, "base") if layer == "base"
+                        else (1 + layer, layer_label(layer)))
         if field is None:
-            warnings.append(f"{layer}: {message}")
+            warnings.append((order, f"{where}: {message}"))
         elif isinstance(field, tuple):
-            warnings.append(f"{layer}, fields {', '.join(repr(f) for f in field)}: {message}")
+            warnings.append((order, f"{where}, fields {', '.join(repr(f) for f in field)}: {message}"))
         else:
-            warnings.append(f"{layer}, field {field!r}: {message}")
+            warnings.append((order, f"{where}, field {field!r}: {message}"))
 
     return warnings, warn
 
 
-def _by_layer(warnings: list[str]) -> tuple[str, ...]:
-    """The warnings in stack order: the stack's, the coats' top to bottom, the base's."""
-    def key(w: str):
-        m = re.match(r"coat (\d+)", w)
-        return 0 if w.startswith("stack") else 1 + int(m.group(1)) if m else 1000
-
-    return tuple(sorted(warnings, key=key))
+def _by_layer(warnings: list[tuple[int, str]]) -> tuple[str, ...]:
+    """The warnings' texts in stack order: the stack's, the coats' top to bottom, the base's."""
+    return tuple(text for _, text in sorted(warnings, key=lambda w: w[0]))
 
 
 def _index_warnings(stack: Stack, warn) -> list[tuple[float, float]]:
@@ -315,10 +316,10 @@ def _index_warnings(stack: Stack, warn) -> list[tuple[float, float]]:
     for i, c in enumerate(stack.coats):
         ior, folded = _relative_index(c.ior, n_above)
         if n_above != 1.0:
-            warn(f"coat {i}", "ior", f"MaterialX's interface is against the medium above the surface, not coat "
+            warn(i, "ior", f"MaterialX's interface is against the medium above the surface, not coat "
                  f"{i - 1}: exported the relative index {c.ior:g} / {n_above:g}")
         if folded:
-            warn(f"coat {i}", "ior", f"relative index {c.ior / n_above:.4g} below 1: exported its reciprocal "
+            warn(i, "ior", f"relative index {c.ior / n_above:.4g} below 1: exported its reciprocal "
                  f"{ior:.4g} (the same normal-incidence reflectance), since MaterialX evaluates the layer at "
                  "the unrefracted direction, where it would reflect everything past a critical angle no "
                  "light from above reaches")
@@ -343,7 +344,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
     for i, c in enumerate(stack.coats):
         if c.has_absorption:
             t = _round_trip(c)
-            warn(f"coat {i}", ("sigma_a", "thickness"), "approximated: the layers below are tinted by the round "
+            warn(i, ("sigma_a", "thickness"), "approximated: the layers below are tinted by the round "
                  f"trip along the normal, exp(-2 sigma_a thickness) = ({_vals(*t)}); the longer path at oblique "
                  "incidence is lost")
     if base.type == "conductor" and n_bottom != 1.0:
@@ -366,7 +367,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
                  f"{base_ior:.4g} (the same normal-incidence reflectance)")
 
     warnings = list(_by_layer(warnings))
-    layers = [f"coat{i}" for i in range(len(stack.coats))] + ["base"]
+    layers = [layer_prefix(i) for i in range(len(stack.coats))] + [layer_prefix(None)]
     root = _document([
         f"Lamella stack {stack.name!r} ({len(stack.coats)} coat(s) over a {base.type} base), as nested MaterialX layers.",
         "Written by `lamella export-mtlx`. What the export approximated or dropped:",
@@ -409,7 +410,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
     # the coats, bottom to top: each a layer over everything below it
     for i in reversed(range(len(stack.coats))):
         c = stack.coats[i]
-        prefix = f"coat{i}"
+        prefix = layer_prefix(i)
         normal, tangent = ("interface", f"{prefix}_normal"), ("interface", f"{prefix}_tangent")
         t = _frame(g, prefix, c.rotation, normal, tangent)
         top = g.node("dielectric_bsdf", f"{prefix}_bsdf", "BSDF", ior=("float", _num(indices[i][1])),
@@ -471,12 +472,12 @@ def open_pbr_document(stack: Stack) -> MaterialXExport:
         if coat.has_absorption:
             t = _round_trip(coat)
             put("coat_color", "color3", _vals(*t))
-            warn("coat 0", ("sigma_a", "thickness"), f"coat_color = exp(-2 sigma_a thickness) = ({_vals(*t)}), the "
+            warn(0, ("sigma_a", "thickness"), f"coat_color = exp(-2 sigma_a thickness) = ({_vals(*t)}), the "
                  "normal-incidence round trip OpenPBR defines it as")
         else:
             put("coat_color", "color3", "1, 1, 1")
         if coat.has_scattering:
-            warn("coat 0", ("sigma_s", "g"), "OpenPBR's coat is a purely absorbing medium: scattering dropped")
+            warn(0, ("sigma_s", "g"), "OpenPBR's coat is a purely absorbing medium: scattering dropped")
         turn = coat.rotation + (math.pi / 2 if swap else 0.0)
         if turn != 0.0:
             rotations["geometry_coat_tangent"] = ("coat", turn)

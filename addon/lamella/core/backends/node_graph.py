@@ -104,6 +104,7 @@ class Plan:
     frame: str = "shading"  # "view": the local x axis is the view's azimuth (staging)
     images: dict = field(default_factory=dict)  # material tables: image name -> pixels (rows bottom first)
     staged: object = field(default=None, repr=False)
+    ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
 
     def leaf(self, name: str) -> Out:
         return Out(-1 - self.leaves.index(name), "Value")
@@ -479,12 +480,13 @@ _TOO_LARGE: dict = {}  # structure key of a staged shader -> whether its traced 
 def _plan(stack, model: str, st, image: str) -> Plan:
     """The plan of the staged shader ``st``, or of the whole model of ``stack`` (``st`` None)."""
     if st is not None:
-        stack, model_name, params = st.stack, st.model, dict(st.defaults)
+        stack, model_name, params, ids = st.stack, st.model, dict(st.defaults), dict(st.ids)
         t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
     else:
         traced = trace_closures(stack, model)
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
+        ids = dict(traced.tracer.ids)
         t, closures, wi, frame, table = traced.tracer, traced.closures, traced.wi, "shading", None
     specs = [(c, c.weight, BSDF_NODES[c.kind.name](t, c.args, wi)) for c in closures]
     exprs = []
@@ -505,7 +507,7 @@ def _plan(stack, model: str, st, image: str) -> Plan:
         sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if c.has_scattering else "")
     images = {image: low.material_pixels()} if any(n.props.get("image") == image for n in low.nodes) else {}
     return Plan(low.nodes, low.leaves, params, bsdfs, sections, model_name, stack.to_json(indent=None),
-                (t, exprs, [low.ref(e) for e in exprs]), frame, images, st)
+                (t, exprs, [low.ref(e) for e in exprs]), frame, images, st, ids)
 
 
 # ---------------------------------------------------------------- register pressure

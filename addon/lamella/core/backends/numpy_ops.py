@@ -33,8 +33,9 @@ class NumpyOps:
         """A literal of the model (or a structural constant)."""
         return self.dtype.type(x)
 
-    def param(self, name: str, value):
-        """A per-layer parameter. For numpy it is just the (cast) value; tracers make an input."""
+    def param(self, pid, value):
+        """A layer's parameter (``core.param_id.ParamId``). For numpy it is just the (cast) value;
+        tracers make an input."""
         return np.asarray(value, dtype=self.dtype) if np.ndim(value) else self.dtype.type(value)
 
     def input(self, name: str, value):

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import luts
@@ -249,17 +249,23 @@ class OslShader:
     declared: tuple = ()  # ShaderParam of every declared parameter, in order
     tables: tuple = ()  # the EXR files (relative to lut_dir) the shader reads, sorted
     closures: tuple = ()  # ShaderClosure of every closure, in order
+    ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
 
     @property
     def socket_values(self) -> dict:
         """Socket name -> its value in panel units (a float, or an RGB tuple for a colour)."""
-        return {sk.name: sk.value for sk in sockets(self.params)}
+        return {sk.name: sk.value for sk in self.sockets}
 
     @property
     def live_sockets(self) -> tuple:
         """The sockets the shader reads (sorted): the linked ones of a staged shader, every one of
         a fully traced shader."""
-        return self.staged.live_sockets if self.staged is not None else tuple(sk.name for sk in sockets(self.params))
+        return self.staged.live_sockets if self.staged is not None else tuple(sk.name for sk in self.sockets)
+
+    @property
+    def sockets(self) -> list:
+        """Every parameter's socket (``sockets.Socket``: panel units, what it is), sorted by name."""
+        return sockets(self.ids, self.params)
 
 
 ENGINE_SWITCH = "lamella_osl"  # the output a Blender shader sets to 1 (``osl_shader``'s ``engine_switch``)
@@ -267,12 +273,14 @@ ENGINE_SWITCH = "lamella_osl"  # the output a Blender shader sets to 1 (``osl_sh
 
 @dataclass(frozen=True)
 class ShaderParam:
-    """One parameter of a generated shader's declaration: its OSL type, its default as printed."""
+    """One parameter of a generated shader's declaration: its OSL type, its default as printed;
+    ``socket``: the layer input it declares (``sockets.Socket``), None for the others."""
 
     name: str
     type: str  # OSL type, e.g. "float", "normal", "closure color"
     default: str
     output: bool = False
+    socket: object = None
 
 
 @dataclass(frozen=True)
@@ -347,7 +355,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
     live_names = tuple(st.live) if st is not None else tuple(sorted(all_params))
     lut_path = str(Path(lut_dir) if lut_dir else luts.DATA_DIR)
-    declared = [_socket_param(sk) for sk in sockets(all_params)
+    declared = [_socket_param(sk) for sk in sockets(traced.tracer.ids, all_params)
                 if declare == "all" or any(k in live_names for k in sk.params)]
     declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
     if uses_tables:
@@ -379,7 +387,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "    float wi_y = dot(V, Bn);",
         "    float wi_z = dot(V, Normal);",
     ]
-    conv = by_param(all_params)
+    conv = by_param(traced.tracer.ids)
     read = {e.args[0] for e in t.live_nodes(outputs) if e.op == "param" and conv[e.args[0]][0].convert != "identity"}
     if read:
         body.append("    // the live parameters, from their sockets (roughness r: alpha = r * r)")
@@ -422,7 +430,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "",
     ])
     return OslShader(source, all_params, live_names, traced.model, st, uses_tables, shader, tuple(declared),
-                     tuple(sorted(p.files)), tuple(called))
+                     tuple(sorted(p.files)), tuple(called), dict(traced.tracer.ids))
 
 
 def _string_literal(text: str) -> str:
@@ -433,8 +441,9 @@ def _string_literal(text: str) -> str:
 def _socket_param(sk) -> ShaderParam:
     """The declaration of a socket (``sockets.Socket``) as a shader parameter."""
     if sk.kind == "color":
-        return ShaderParam(_identifier(sk.name), "color", f"color({', '.join(_literal(v) for v in sk.value)})")
-    return ShaderParam(_identifier(sk.name), "float", _literal(sk.value))
+        return ShaderParam(_identifier(sk.name), "color", f"color({', '.join(_literal(v) for v in sk.value)})",
+                           socket=sk)
+    return ShaderParam(_identifier(sk.name), "float", _literal(sk.value), socket=sk)
 
 
 def _float32_literals(values) -> list[str]:

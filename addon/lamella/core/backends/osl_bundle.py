@@ -19,17 +19,14 @@ Pure Python (no bpy): usable from the ``lamella`` command anywhere the package r
 from __future__ import annotations
 
 import json
-import re
 import shutil
 from pathlib import Path
 
 from .. import lobe_kinds, luts
-from ..layers import BASE_KINDS, COAT_KINDS
 from ..layers.schema import RGB, ROUGHNESS
 from ..models import resolve
 from ..stack import Stack
 from .osl import VIEW_LINES, VIEW_TARGETS, OslShader, ShaderParam, _identifier, osl_shader
-from .sockets import socket_names
 
 TABLES_DIR = "luts"  # the bundle's table folder, and the shader's default lut_dir
 README = "README.md"
@@ -63,11 +60,11 @@ def _with_unit(text: str, unit: str) -> str:
     return f"{text} [{unit}]" if unit else text
 
 
-def describe_parameter(name: str, stack: Stack) -> str:
-    """What a shader input is, from its name pattern (``coat{i}_<field>``, ``base_<field>``; a
-    colour input for an RGB field; ``_roughness``, ``_roughness_x``, ``_roughness_y`` for a
-    roughness, in Blender's units: ``core.backends.sockets``) and the field's description in its
-    layer kind's schema."""
+def describe_parameter(param: ShaderParam, stack: Stack) -> str:
+    """What a shader input is: for a layer input, its layer, the field's description in its layer
+    kind's schema (the stack format's own words) and its unit (a colour is one input for the three
+    channels; a roughness is Blender's r: ``core.backends.sockets``), read from what the input is
+    (``ShaderParam.socket``), not from its name."""
     fixed = {
         "Normal": "shading normal (default: the renderer's N)",
         "Tangent": "x axis of the anisotropic layers' roughness and rotation, projected onto the "
@@ -76,34 +73,20 @@ def describe_parameter(name: str, stack: Stack) -> str:
         "lut_dir": "folder of the EXR look-up tables, read with texture() (see Look-up tables)",
         "BSDF": "output: the layered material's closure, a sum of weighted lobes (see Closures)",
     }
-    if name in fixed:
-        return fixed[name]
-    m = re.match(r"^(coat(\d+)|base)_(.+)$", name)
-    if not m:
-        return "shader input"
-    if m.group(2) is not None:
-        i = int(m.group(2))
-        if i >= len(stack.coats):
-            return "shader input"
-        layer = stack.coats[i]
-        kind = COAT_KINDS[layer.type]
-        where = f"coat {i}" + (" (top)" if i == 0 else "")
+    sk = param.socket
+    if sk is None:
+        return fixed.get(param.name, "shader input")
+    if sk.layer is None:
+        layer, where = stack.base, f"base ({stack.base.type})"
     else:
-        kind = BASE_KINDS[stack.base.type]
-        where = f"base ({stack.base.type})"
-    rest = m.group(3)
-    fields = {f.name: f for f in kind.fields}
-    rough = next((f for f in kind.fields if f.type == ROUGHNESS), None)
-    if rough is not None and rest in ("roughness", "roughness_x", "roughness_y"):
-        text = _short(rough).replace("GGX alpha", "roughness")
-        text += {"roughness": ", isotropic", "roughness_x": " along the tangent (x)",
-                 "roughness_y": " along the bitangent (y)"}[rest]
+        layer, where = stack.coats[sk.layer], f"coat {sk.layer}" + (" (top)" if sk.layer == 0 else "")
+    f = next(f for f in layer.kind.fields if f.name == sk.field)
+    if f.type == ROUGHNESS:
+        text = _short(f).replace("GGX alpha", "roughness")
+        text += {"": ", isotropic", "x": " along the tangent (x)", "y": " along the bitangent (y)"}[sk.axis]
         return f"{where}: {text} [Blender roughness r; GGX alpha = r * r]"
-    if rest in fields:
-        f = fields[rest]
-        colour = ", a colour (one input for the red, green and blue channels)" if f.type == RGB else ""
-        return f"{where}: {_with_unit(_short(f), f.unit)}{colour}"
-    return f"{where}: shader input"
+    colour = ", a colour (one input for the red, green and blue channels)" if f.type == RGB else ""
+    return f"{where}: {_with_unit(_short(f), f.unit)}{colour}"
 
 
 # ---------------------------------------------------------------- the README
@@ -116,12 +99,12 @@ def _stack_json(stack: Stack) -> str:
                        f'  "base": {json.dumps(d["base"])}', "}"])
 
 
-def _layer_order(name: str) -> tuple[int, int]:
+def _layer_order(param: ShaderParam) -> tuple[int, int]:
     """Coats from the top, then the base, then the inputs every shader has (stable within)."""
-    m = re.match(r"^coat(\d+)_", name)
-    if m:
-        return (0, int(m.group(1)))
-    return (1, 0) if name.startswith("base_") else (2, 0)
+    sk = param.socket
+    if sk is None:
+        return (2, 0)
+    return (1, 0) if sk.layer is None else (0, sk.layer)
 
 
 def _view_section(target: str) -> list[str]:
@@ -250,15 +233,15 @@ def readme(stack, shader: OslShader, model_name: str, target: str, shader_file: 
         "| name | type | default | description |",
         "|---|---|---|---|",
     ]
-    for p in sorted(params, key=lambda p: _layer_order(p.name)):
+    for p in sorted(params, key=_layer_order):
         t = f"output {p.type}" if p.output else p.type
-        lines.append(f"| `{p.name}` | {t} | `{p.default}` | {describe_parameter(p.name, stack)} |")
+        lines.append(f"| `{p.name}` | {t} | `{p.default}` | {describe_parameter(p, stack)} |")
     lines.append("")
     return "\n".join(lines)
 
 
 def _live_note(shader: OslShader) -> str:
-    every = socket_names(shader.params)
+    every = [sk.name for sk in shader.sockets]
     baked = sorted(set(every) - set(shader.live_sockets))
     if not baked:
         return "Every layer input is a shader input (none is baked)."

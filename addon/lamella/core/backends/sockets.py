@@ -10,84 +10,90 @@ own BSDFs do:
 - everything else keeps its name and unit (``coat0_ior``, ``coat0_thickness``, ``coat0_g``, and
   rotations in radians, Blender's angle unit).
 
-Each emitter declares ``sockets(params)`` and rebuilds a parameter from its socket with
-``Socket.convert`` (OSL: ``float coat0_alpha = coat0_roughness * coat0_roughness;``; nodes: a
-Math or Separate Color node); a linked socket makes its parameters live (``params_of``).
+Sockets are made from what each parameter is (``core.param_id.ParamId``: layer, field, channel,
+unit), never from its name. Each emitter declares ``sockets(ids, values)`` and rebuilds a
+parameter from its socket with ``Socket.convert`` (OSL: ``float coat0_alpha = coat0_roughness *
+coat0_roughness;``; nodes: a Math or Separate Color node); a linked socket makes its parameters
+live (``params_of``).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import Mapping
 
-CHANNELS = ("r", "g", "b")
+from ..param_id import COLOUR_CHANNELS, ParamId, r_from_alpha, socket_name
 
 
 @dataclass(frozen=True)
 class Socket:
     """One input: ``name``; ``kind`` "float" or "color"; ``params``: the model parameters it
-    feeds (one, or a colour's three channels); ``convert``: "identity", "square" (roughness r to
-    alpha) or "channels" (a colour's components); ``value``: its value in socket units (a float, or
-    an RGB tuple)."""
+    feeds (one, or a colour's three channels in r, g, b order); ``convert``: "identity",
+    "square" (roughness r to alpha) or "channels" (a colour's components); ``value``: its value
+    in socket units (a float, or an RGB tuple); ``layer`` (coat index, None: the base), ``field``
+    and ``axis`` ("x", "y" of an anisotropic roughness, else ""): what it is."""
 
     name: str
     kind: str
     params: tuple
     convert: str
     value: object
+    layer: int | None = None
+    field: str = ""
+    axis: str = ""
 
 
-def _roughness_name(param: str) -> str | None:
-    for suffix in ("_alpha", "_alpha_x", "_alpha_y"):
-        if param.endswith(suffix):
-            return param[: -len(suffix)] + suffix.replace("alpha", "roughness")
-    return None
-
-
-def sockets(params: dict) -> list[Socket]:
-    """The sockets of a model whose parameters (name -> value) are ``params``, sorted by name."""
-    out, done = [], set()
-    for name in sorted(params):
-        if name in done:
-            continue
-        rough = _roughness_name(name)
-        stem, _, ch = name.rpartition("_")
-        triple = tuple(f"{stem}_{c}" for c in CHANNELS)
-        if rough is not None:
-            out.append(Socket(rough, "float", (name,), "square", math.sqrt(max(float(params[name]), 0.0))))
-        elif ch in CHANNELS and all(p in params for p in triple):
-            out.append(Socket(stem, "color", triple, "channels", tuple(float(params[p]) for p in triple)))
-            done.update(triple)
+def sockets(ids: Mapping[str, ParamId], values: Mapping[str, float] | None = None) -> list[Socket]:
+    """The sockets of a model whose parameters are ``ids`` (name -> ``ParamId``), at ``values``
+    (name -> model value; absent: 0), sorted by name."""
+    values = values or {}
+    colours: dict = {}
+    out = []
+    for name, pid in ids.items():
+        v = float(values.get(name, 0.0))
+        if pid.is_colour:
+            colours.setdefault(pid.socket, {})[pid.channel] = (name, v, pid)
+        elif pid.is_roughness:
+            out.append(Socket(pid.socket, "float", (name,), "square", r_from_alpha(v), pid.layer, pid.field,
+                              pid.channel))
         else:
-            out.append(Socket(name, "float", (name,), "identity", float(params[name])))
+            out.append(Socket(pid.socket, "float", (name,), "identity", v, pid.layer, pid.field, pid.channel))
+    for sname, chans in colours.items():
+        if set(chans) != set(COLOUR_CHANNELS):
+            raise ValueError(f"{next(iter(chans.values()))[2].where}: a colour declares all three channels "
+                             f"(declared: {', '.join(sorted(chans))})")
+        parts = [chans[c] for c in COLOUR_CHANNELS]
+        pid = parts[0][2]
+        out.append(Socket(sname, "color", tuple(p[0] for p in parts), "channels", tuple(p[1] for p in parts),
+                          pid.layer, pid.field, ""))
     return sorted(out, key=lambda s: s.name)
 
 
-def by_param(params: dict) -> dict:
+def by_param(ids: Mapping[str, ParamId]) -> dict:
     """Parameter name -> (its socket, the channel index or None)."""
     out = {}
-    for s in sockets(params):
+    for s in sockets(ids):
         for k, p in enumerate(s.params):
             out[p] = (s, k if s.convert == "channels" else None)
     return out
 
 
-def params_of(names, params: dict) -> tuple:
+def params_of(names, ids: Mapping[str, ParamId]) -> tuple:
     """The parameters fed by the sockets named ``names`` (names that are parameters themselves
     are accepted too, as a pipeline may name them); sorted."""
-    table = {s.name: s.params for s in sockets(params)}
+    table = {s.name: s.params for s in sockets(ids)}
     out = set()
     for n in names:
         if n in table:
             out.update(table[n])
-        elif n in params:
+        elif n in ids:
             out.add(n)
         else:
             raise KeyError(n)
     return tuple(sorted(out))
 
 
-def socket_names(params: dict) -> list[str]:
-    return [s.name for s in sockets(params)]
+def socket_names(ids: Mapping[str, ParamId]) -> list[str]:
+    return [s.name for s in sockets(ids)]
 
 
-__all__ = ["Socket", "sockets", "by_param", "params_of", "socket_names"]
+__all__ = ["Socket", "sockets", "by_param", "params_of", "socket_names", "socket_name"]

@@ -160,12 +160,13 @@ class Staged:
     axis_tables: tuple = ()  # ``AxisTable``s: values over (view, linked parameters) (``atab`` reads)
     live_axes: int = 0  # the most linked parameters a tabulated value may depend on (``stage``)
     traced_params: tuple = ()  # the live parameters some traced arithmetic of the model reads
+    ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
 
     @property
     def live_sockets(self) -> tuple:
         """The sockets (``sockets.sockets``: panel units) whose parameters are live, sorted."""
         live = set(self.live)
-        return tuple(sk.name for sk in sockets(dict.fromkeys(self.interface, 0.0)) if live & set(sk.params))
+        return tuple(sk.name for sk in sockets({k: self.ids[k] for k in self.interface}) if live & set(sk.params))
 
     @property
     def columns(self) -> int:
@@ -262,16 +263,16 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         traced = trace_closures(stack, model)  # ``traced``: the caller's trace of this stack and model
     t = traced.tracer
     defaults = {k: float(t.defaults[k]) for k in t.params}
-    unknown = sorted(n for n in live if n not in defaults and n not in socket_names(defaults))
+    unknown = sorted(n for n in live if n not in defaults and n not in socket_names(t.ids))
     if unknown:
         raise ValueError(f"not an input of this shader: {', '.join(unknown)} "
-                         f"(have: {', '.join(socket_names(defaults))})")
-    live = params_of(live, defaults)
+                         f"(have: {', '.join(socket_names(t.ids))})")
+    live = params_of(live, t.ids)
     frame = "view" if isotropic(stack) else "shading"
     if grid is not None and frame == "view" and grid.n_phi != 1:
         raise ValueError("a stack staged in the view frame has one azimuth node")
     live_ids = t.reached_by(live)
-    axes = {p: ax for p in live if live_axes > 0 and (ax := axis_of(stack, p, defaults[p])) is not None}
+    axes = {p: ax for p in live if live_axes > 0 and (ax := axis_of(stack, t.ids[p], defaults[p])) is not None}
     traced_ids = _traced_part(t, live, axes, live_axes) if axes else live_ids
 
     def live_expr(x):
@@ -368,7 +369,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     for params, exprs in on_axes.items():
         for p in params:
             if p not in coord_of:
-                coord_of[p] = axes[p].coord(t2, t2.param(p, t.defaults[p]))
+                coord_of[p] = axes[p].coord(t2, t2.param(t.ids[p], t.defaults[p]))
         k = len(axis_tables)
         axis_tables.append(AxisTable(tuple(tables[params]), data[params]))
         t2.set_scope("table")
@@ -387,7 +388,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
             traced_params.update(p for p in live if id(e) in t.reached_by([p]))
         a = [a if isinstance(a, str) else rebuild(a) for a in e.args]
         if e.op == "param":
-            env[id(e)] = t2.param(a[0], t.defaults[a[0]])
+            env[id(e)] = t2.param(t.ids[a[0]], t.defaults[a[0]])
         elif e.op == "select":
             env[id(e)] = t2.select(*a)
         else:
@@ -405,7 +406,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
-                tuple(sorted(traced_params)))
+                tuple(sorted(traced_params)), dict(t.ids))
     return st
 
 

@@ -13,6 +13,7 @@ import math
 import operator
 from typing import Any
 
+from ..param_id import ParamId
 from .traced_ops import OPS
 
 _BINARY = {
@@ -73,6 +74,7 @@ class Tracer:
     def __init__(self):
         self.nodes: list[Expr] = []
         self.params: dict[str, Expr] = {}
+        self.ids: dict[str, ParamId] = {}  # parameter name -> what it is (layer, field, channel, unit)
         self.defaults: dict[str, Any] = {}
         self.inputs: dict[str, Expr] = {}
         self._cache: dict[tuple, Expr] = {}
@@ -125,10 +127,14 @@ class Tracer:
     def const(self, x):
         return float(x)
 
-    def param(self, name, value):
-        e = self.node("param", name)
-        self.params[name] = e
-        self.defaults[name] = value
+    def param(self, pid: ParamId, value):
+        """A layer's parameter (``ParamId``: what it is); the graph names it by ``pid.name``."""
+        if not isinstance(pid, ParamId):
+            raise TypeError(f"a parameter is declared by its ParamId (layers.params.field_param), not {pid!r}")
+        e = self.node("param", pid.name)
+        self.params[pid.name] = e
+        self.ids[pid.name] = pid
+        self.defaults[pid.name] = value
         return e
 
     def input(self, name, value=None):
@@ -230,7 +236,7 @@ class Tracer:
             for e in nodes:
                 a = [val(x) for x in e.args]
                 if e.op in ("param", "input"):
-                    v = ops.param(a[0], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
+                    v = ops.param(self.ids[a[0]], values[a[0]]) if e.op == "param" else ops.input(a[0], values[a[0]])
                 elif e.op in _BINARY:
                     v = _BINARY[e.op](a[0], a[1])
                 elif e.op == "select":

@@ -5,7 +5,7 @@ description"). A coat whose ior equals the medium above and whose roughness is 0
 medium (dust, fog)."""
 from __future__ import annotations
 
-from .params import rgb_param, roughness_params
+from .params import field_param, rgb_param, roughness_params
 from .schema import (ANGLE, ANGLE_MAX, FLOAT, G_MAX, IOR_MAX, IOR_MIN, RGB, ROUGHNESS, SIGMA_MAX, THICKNESS_MAX, Field,
                      layer_kind)
 
@@ -37,17 +37,17 @@ def _has_scattering(self) -> bool:
     return self.thickness > 0.0 and any(s > 0.0 for s in self.sigma_s)
 
 
-def params(ops, prefix: str, coat) -> dict:
+def params(ops, slot, coat) -> dict:
     """ior and roughness always; thickness and sigma_a only for an absorbing interior, sigma_s and
     g only for a scattering one (a clear coat traces to no medium code)."""
-    p = {"ior": ops.param(f"{prefix}_ior", coat.ior), **roughness_params(ops, prefix, coat.roughness, coat.rotation)}
+    p = {"ior": field_param(ops, slot, "ior", coat.ior), **roughness_params(ops, slot, coat.roughness, coat.rotation)}
     if coat.has_absorption or coat.has_scattering:
-        p["thickness"] = ops.param(f"{prefix}_thickness", coat.thickness)
+        p["thickness"] = field_param(ops, slot, "thickness", coat.thickness)
     if coat.has_absorption:
-        p["sigma_a"] = rgb_param(ops, f"{prefix}_sigma_a", coat.sigma_a)
+        p["sigma_a"] = rgb_param(ops, slot, "sigma_a", coat.sigma_a)
     if coat.has_scattering:
-        p["sigma_s"] = rgb_param(ops, f"{prefix}_sigma_s", coat.sigma_s)
-        p["g"] = ops.param(f"{prefix}_g", coat.g)
+        p["sigma_s"] = rgb_param(ops, slot, "sigma_s", coat.sigma_s)
+        p["g"] = field_param(ops, slot, "g", coat.g)
     return p
 
 

@@ -20,9 +20,9 @@ FIELDS = (
 )
 
 
-def params(ops, prefix: str, base) -> dict:
-    return {"eta": rgb_param(ops, f"{prefix}_eta", base.eta), "k": rgb_param(ops, f"{prefix}_k", base.k),
-            **roughness_params(ops, prefix, base.roughness, base.rotation)}
+def params(ops, slot, base) -> dict:
+    return {"eta": rgb_param(ops, slot, "eta", base.eta), "k": rgb_param(ops, slot, "k", base.k),
+            **roughness_params(ops, slot, base.roughness, base.rotation)}
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:

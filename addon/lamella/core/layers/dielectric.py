@@ -3,7 +3,7 @@ under a rough interface; light crossing it leaves the stack downward (coated gla
 ``ior`` 1 under a glass coat, a plate with air on both sides)."""
 from __future__ import annotations
 
-from .params import BaseResponse, roughness_params
+from .params import BaseResponse, field_param, roughness_params
 from .schema import ANGLE, ANGLE_MAX, FLOAT, IOR_MAX, IOR_MIN, ROUGHNESS, Field, layer_kind
 from ..models.rgb import RGB as RGBValue
 
@@ -17,8 +17,8 @@ FIELDS = (
 )
 
 
-def params(ops, prefix: str, base) -> dict:
-    return {"ior": ops.param(f"{prefix}_ior", base.ior), **roughness_params(ops, prefix, base.roughness, base.rotation)}
+def params(ops, slot, base) -> dict:
+    return {"ior": field_param(ops, slot, "ior", base.ior), **roughness_params(ops, slot, base.roughness, base.rotation)}
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:

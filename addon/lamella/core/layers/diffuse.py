@@ -11,8 +11,8 @@ FIELDS = (
 )
 
 
-def params(ops, prefix: str, base) -> dict:
-    return {"albedo": rgb_param(ops, f"{prefix}_albedo", base.albedo)}
+def params(ops, slot, base) -> dict:
+    return {"albedo": rgb_param(ops, slot, "albedo", base.albedo)}
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:

@@ -1,7 +1,9 @@
 """What the models read from a layer, as backend values (shader inputs when traced).
 
-Layer kinds build their parameters with these helpers, so every kind names its shader inputs the
-same way (``coat0_ior``, ``base_alpha``, ``base_eta_r``) and an isotropic layer carries no
+A kind's ``params(ops, slot, layer)`` declares each parameter through ``slot`` (``LayerSlot``:
+which layer it is) with these helpers, so every parameter carries its identity
+(``core.param_id.ParamId``: layer, field, channel, unit) and every kind names its shader inputs
+the same way (``coat0_ior``, ``base_alpha``, ``base_eta_r``); an isotropic layer carries no
 anisotropy code.
 """
 from __future__ import annotations
@@ -9,23 +11,32 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..models.rgb import RGB
+from ..param_id import AXES, COLOUR_CHANNELS, LayerSlot
 
 
-def rgb_param(ops, name: str, values) -> RGB:
-    return RGB(*(ops.param(f"{name}_{ch}", v) for ch, v in zip("rgb", values)))
+def field_param(ops, slot: LayerSlot, field: str, value):
+    """The parameter of a number field."""
+    return ops.param(slot.id(field), value)
 
 
-def roughness_params(ops, prefix: str, roughness, rotation) -> dict:
-    """An isotropic layer is one input ``<prefix>_alpha`` with no rotation (rotation has no effect
+def rgb_param(ops, slot: LayerSlot, field: str, values) -> RGB:
+    """The three parameters of a colour field (one per channel)."""
+    return RGB(*(ops.param(slot.id(field, ch), v) for ch, v in zip(COLOUR_CHANNELS, values)))
+
+
+def roughness_params(ops, slot: LayerSlot, roughness, rotation, field: str = "roughness",
+                     rotation_field: str = "rotation") -> dict:
+    """An isotropic layer is one input ``<layer>_alpha`` with no rotation (rotation has no effect
     on it): the traced shader then carries no anisotropy or rotation code for it. An anisotropic
     layer has ``_alpha_x``, ``_alpha_y`` and ``_rotation`` inputs. Which of the two a layer is,
     is part of the stack's structure (a different shader), like the number of coats."""
     ax, ay = roughness
     if ax == ay:
-        a = ops.param(f"{prefix}_alpha", ax)
+        a = ops.param(slot.id(field), ax)
         return {"ax": a, "ay": a, "rotation": 0.0}
-    return {"ax": ops.param(f"{prefix}_alpha_x", ax), "ay": ops.param(f"{prefix}_alpha_y", ay),
-            "rotation": ops.param(f"{prefix}_rotation", rotation)}
+    x, y = AXES
+    return {"ax": ops.param(slot.id(field, x), ax), "ay": ops.param(slot.id(field, y), ay),
+            "rotation": ops.param(slot.id(rotation_field), rotation)}
 
 
 @dataclass

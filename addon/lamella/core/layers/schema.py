@@ -15,6 +15,8 @@ import struct
 from dataclasses import dataclass, field, make_dataclass
 from typing import Any, Callable, Mapping
 
+from ..param_id import ALPHA
+
 
 class StackError(ValueError):
     """Invalid stack description. ``layer`` and ``field`` say where (``layer`` is ``"base"``,
@@ -73,6 +75,11 @@ class Field:
     label: str = ""
     color: bool = False
     group: str = ""
+
+    @property
+    def param_unit(self) -> str:
+        """The unit the models read this field in (a roughness: GGX alpha, whatever ``unit`` shows)."""
+        return ALPHA if self.type == ROUGHNESS else self.unit
 
     @property
     def ui_label(self) -> str:
@@ -164,8 +171,10 @@ class LayerKind:
     """A kind of layer: its ``type`` string, its role (``"coat"`` or ``"base"``), its fields, the
     immutable dataclass holding a parsed layer, and what the models need from it:
 
-    ``params(ops, prefix, layer)``: the layer's parameters as backend values (shader inputs when
-    traced), a dict the kind's own ``response`` and the models read;
+    ``params(ops, slot, layer)``: the layer's parameters as backend values (shader inputs when
+    traced), a dict the kind's own ``response`` and the models read; each is declared through
+    ``slot`` (``params.LayerSlot``) with ``params.field_param``, ``rgb_param`` or
+    ``roughness_params``, which give it its identity (``core.param_id.ParamId``);
     ``response(ops, p, mu, alpha, n_above)`` (bases only): a :class:`BaseResponse`, the base's
     energies for light arriving at cosine ``mu`` from a medium of index ``n_above``.
 

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction, trapped_escape
 from .hg import belcour_variance_of_g
+from ..param_id import slots
 from .rgb import RGB
 
 COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
@@ -92,8 +93,9 @@ class Variant:
 def layer_params(ops, stack):
     """Every per-layer parameter as a backend value (a shader input when traced), by the layer
     kinds' own ``params``."""
-    coats = [c.kind.params(ops, f"coat{i}", c) for i, c in enumerate(stack.coats)]
-    return coats, stack.base.kind.params(ops, "base", stack.base)
+    coat_slots, base_slot = slots(stack)
+    coats = [c.kind.params(ops, slot, c) for slot, c in zip(coat_slots, stack.coats)]
+    return coats, stack.base.kind.params(ops, base_slot, stack.base)
 
 
 @dataclass(frozen=True)
