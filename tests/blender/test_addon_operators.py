@@ -145,6 +145,25 @@ def test_remove_and_move_refuse_what_they_cannot_do_and_say_why(addon, mat):
     assert _names(mat) == before
 
 
+def test_a_named_material_is_edited_whatever_the_context_shows(addon, mat):
+    """A script names its material with material=: the operator acts on it even where the active
+    object's material has no coat (a glass base alone), and refuses a material without coats in
+    words."""
+    bare = addon.data.materials.new("bare glass")
+    api.apply_stack(bare, {"layers": [], "base": {"type": "dielectric", "ior": 1.5}})
+    ob = addon.data.objects.new("context object", addon.data.meshes.new("context mesh"))
+    addon.context.scene.collection.objects.link(ob)
+    ob.data.materials.append(bare)
+    addon.context.view_layer.objects.active = ob
+    n = len(mat.lamella.coats)
+    mat.lamella.active_index = 0
+    addon.ops.lamella.layer_remove(material=mat.name)
+    assert len(mat.lamella.coats) == n - 1
+    with pytest.raises(RuntimeError, match="no coat to remove"):
+        addon.ops.lamella.layer_remove(material=bare.name)
+    addon.data.objects.remove(ob)
+
+
 def test_list_buttons_are_greyed_out_where_they_cannot_act(addon, mat):
     from lamella.blender import ui
 

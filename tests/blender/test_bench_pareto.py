@@ -10,8 +10,10 @@ import pytest
 pytest.importorskip("bpy")
 from lamella_dev.bench import pareto  # noqa: E402
 
+pytestmark = pytest.mark.xdist_group("bench_pareto")  # one worker computes the shared fixture
 
-@pytest.fixture(scope="module")
+
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def quick(tmp_path_factory):
     out = tmp_path_factory.mktemp("pareto")
     md = pareto.run(out, quick=True, progress=False)

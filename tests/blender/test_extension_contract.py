@@ -11,12 +11,14 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.xdist_group("extension_contract")  # one worker computes the shared fixture
+
 pytest.importorskip("bpy")
 
 SESSION = Path(__file__).with_name("extension_contract_session.py")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def found(tmp_path_factory):
     out = tmp_path_factory.mktemp("extension_contract")
     r = subprocess.run([sys.executable, str(SESSION), str(out)], capture_output=True, text=True, timeout=900)

@@ -30,7 +30,7 @@ def _run(args, tmp_path, user):
     return json.loads(lines[-1][len("FOUND "):])
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def life(extension_zip, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("life")
     made, moved = tmp / "studio", tmp / "farm" / "shots"

@@ -17,6 +17,8 @@ from lamella_dev.bench.image_references import sphere_pixels  # noqa: E402
 from lamella_dev.bench.materialx import _figures  # noqa: E402
 from lamella_dev.render import build_scene, render_scene, render_stack  # noqa: E402
 
+pytestmark = pytest.mark.xdist_group("materialx_render")  # one worker computes the shared fixture
+
 RES, SPP = 64, 16
 CASE = "gold_coated"
 # Measured at RES, SPP, seed 0 (bpy 5.2.3, materialx 1.39.4), against Lamella's shader at the same
@@ -30,7 +32,7 @@ LAYERED_BOUNDS = {"bias": 0.10, "delta_e00": 10.0, "rmse_8px": 0.45}
 OPEN_PBR_BOUNDS = {"bias": 0.40, "delta_e00": 10.0, "rmse_8px": 0.45}
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def ours():
     img, _ = render_stack(suite.load(CASE), "sphere-env", res=RES, spp=SPP, seed=0)
     return img

@@ -17,6 +17,8 @@ from lamella_dev.bench.accuracy import MODELS, evaluate_case, load_reference
 from lamella_dev import suite
 from lamella.core.stack import Stack
 
+pytestmark = pytest.mark.xdist_group("accuracy")  # one worker computes the shared fixture
+
 RECORDED = json.loads((BENCH_DIR / "accuracy.json").read_text())
 RELATIVE, FLOOR = 0.01, 1e-4  # how far a figure may move: 1 % of itself, and 1e-4 near zero
 
@@ -40,12 +42,12 @@ def _rows(ref_dir):
     return out
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def rows():
     return _rows(REFERENCE_DIR)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once, however xdist interleaves modules
 def rows_multiple():
     return _rows(REFERENCE_DIR_MULTIPLE)
 

@@ -96,19 +96,29 @@ def test_blender_anisotropy_gives_back_the_lobe_axes():
     assert a[2] == 0.0 and a[3] == 0.0 and a[5] == 0.0, "isotropic lobes have no anisotropy"
 
 
-def test_partition_covers_every_node_once_in_bounded_groups():
-    plan = emit_plan(suite.example("four_coats"))
-    sections = partition(plan)
+@pytest.mark.parametrize("live", [(), ("coat1_roughness", "base_eta")])
+def test_partition_covers_every_node_once_in_bounded_groups(live):
+    plan = emit_plan(suite.example("four_coats"), live=live)
+    items = partition(plan)
+    sections = [s for s in items if not s.own]
     chunks = [c for s in sections for c in s.parts]
-    seen = [i for c in chunks for i in c.nodes]
+    own = [i for s in items if s.own for i in s.nodes]
+    assert own and set(own) == node_graph.own_nodes(plan)  # the material's table reads
+    seen = [i for c in chunks for i in c.nodes] + own
     assert sorted(seen) == list(range(len(plan.nodes)))
     assert max(len(c.nodes) for c in chunks) <= CHUNK_NODES
     assert max(len(s.parts) for s in sections) <= node_graph.SECTION_CHUNKS
     assert all(len({plan.nodes[i].scope for i in c.nodes}) == 1 for c in chunks)
-    produced = {i for c in chunks for i in c.nodes}
-    for c in chunks:  # a chunk reads only leaves, its own nodes and earlier chunks' outputs
-        for v in c.inputs:
-            assert v.node < 0 or (v.node in produced and v.node < min(c.nodes))
+    # built in order, each reads only leaves and what was built before it
+    built: set = set()
+    for item in items:
+        for part in (item.parts or [item]):
+            reads = part.inputs if not part.own else [v for i in part.nodes for v in plan.nodes[i].inputs.values()
+                                                      if isinstance(v, node_graph.Out)]
+            assert all(v.node < 0 or v.node in built or v.node in part.nodes for v in reads)
+            built.update(part.nodes)
+    # no nested group reads the material's table: every material of this structure shares them
+    assert not any(plan.nodes[i].props.get("image") in plan.images for c in chunks for i in c.nodes)
 
 
 def test_a_value_edit_keeps_every_nested_group_and_a_structure_edit_keeps_the_rest():

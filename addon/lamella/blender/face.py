@@ -3,10 +3,12 @@
 The face is a group node (``FACE``) in the material's own node tree. Its group (one per material,
 ``Lamella <material>``) has an input for every field of every layer, in the panel's order, units
 and labels ("Clear Coat: Roughness" in Blender's roughness r, a colour as one colour socket, an
-angle in radians), then ``Normal`` and ``Tangent``, and a ``BSDF`` output. The artist links
-textures into it and puts it anywhere in their tree (a Mix Shader, an Add Shader with an
-emission); Lamella never touches a node or link outside the group except to link a face it has
-just created into an output whose surface shows nothing Lamella did not make.
+angle in radians), then ``Normal`` and ``Tangent``, and a ``BSDF`` output, with ``Thickness`` (0)
+for the output's Thickness, which only EEVEE reads (``THICKNESS``). The artist links textures
+into it and puts it anywhere in their tree (a Mix Shader, an Add Shader with an emission);
+Lamella never touches a node or link outside the group except to link a face it has just created
+(or a face of an earlier version that had no Thickness) into an output whose surface shows
+nothing Lamella did not make: its BSDF into the surface, its Thickness into a free Thickness.
 
 Each input belongs to a layer, not to a position: its key is ``<layer uid>/<field>``
 (``FaceInput``), kept in the group (``SOCKETS_KEY``: interface socket identifier -> key), so a
@@ -44,6 +46,14 @@ SCRIPT = "Lamella Shader"
 GROUP = "Lamella Nodes"
 SWITCH = "Lamella Switch"
 NORMAL, TANGENT = "Normal", "Tangent"
+FRAME_GROUP = ".lamella_face_frame_1"  # the shared normal and tangent picks (``_frame_group``)
+# EEVEE's object thickness for the Material Output's Thickness (Cycles ignores it): 0, one interface.
+# The node group's refraction closure is already the whole surface's refraction (a lobe about the
+# transmitted direction at index REFRACT_ETA, ``bsdf_nodes``); EEVEE's default thickness model adds
+# a second refraction at that index, where anything off the lobe's axis is totally reflected, and
+# EEVEE's ray-traced glass renders dark.
+THICKNESS = "Thickness"
+OUTPUTS = (("BSDF", "NodeSocketShader"), (THICKNESS, "NodeSocketFloat"))
 BASE_UID = "base"
 
 
@@ -130,9 +140,9 @@ def socket_keys(tree) -> dict:
 
 
 def sync_interface(tree, inputs: list[FaceInput]) -> None:
-    """Make ``tree``'s interface the face's ``inputs`` (then Normal, Tangent; output BSDF), keeping
-    every socket whose key stays (and so the links, keyframes and drivers on it), renamed and
-    moved to its place."""
+    """Make ``tree``'s interface the face's ``inputs`` (then Normal, Tangent; outputs BSDF and
+    Thickness), keeping every socket whose key stays (and so the links, keyframes and drivers on
+    it), renamed and moved to its place."""
     keys = socket_keys(tree)
     want = [(i.key, i.name, i.socket_type) for i in inputs] + [(NORMAL, NORMAL, "NodeSocketVector"),
                                                                  (TANGENT, TANGENT, "NodeSocketVector")]
@@ -146,10 +156,13 @@ def sync_interface(tree, inputs: list[FaceInput]) -> None:
             tree.interface.remove(s)
     outs = [s for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT"]
     for s in outs:
-        if s.name != "BSDF" or s.socket_type != "NodeSocketShader":
+        if (s.name, s.socket_type) not in OUTPUTS:
             tree.interface.remove(s)
-    if not any(s.name == "BSDF" and s.socket_type == "NodeSocketShader" for s in outs):
-        tree.interface.new_socket(name="BSDF", in_out="OUTPUT", socket_type="NodeSocketShader")
+    for name, typ in OUTPUTS:
+        if not any(s.name == name and s.socket_type == typ for s in outs):
+            s = tree.interface.new_socket(name=name, in_out="OUTPUT", socket_type=typ)
+            if name == THICKNESS:
+                s.default_value = 0.0
     spec = {i.key: i for i in inputs}
     first = sum(1 for s in tree.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT")
     for pos, (key, name, typ) in enumerate(want):
@@ -195,21 +208,27 @@ def set_node_values(node, inputs: list[FaceInput]) -> None:
             set_socket(sock, i.value)
 
 
-def linked_models(node, inputs: list[FaceInput], animated=frozenset()) -> tuple:
-    """The model sockets whose face inputs are linked (a texture, an attribute, another node) or
-    animated (keyframes or a driver on the input): what the shader must read live, so the
-    renderer reads them on every frame in every engine; ``animated``: the animated data paths of
-    the node's tree, ``animation.animated_paths``). Sorted."""
+def live_keys(node, inputs: list[FaceInput], animated=frozenset()) -> frozenset:
+    """The keys of the face inputs that are linked (a texture, an attribute, another node) or
+    animated (keyframes or a driver on the input; ``animated``: the animated data paths of the
+    node's tree, ``animation.animated_paths``)."""
     def live(key):
         sock = node_socket(node, key)
         return sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated)
 
+    return frozenset(i.key for i in inputs if live(i.key))
+
+
+def linked_models(node, inputs: list[FaceInput], animated=frozenset()) -> tuple:
+    """The model sockets whose face inputs are linked or animated (``live_keys``): what the shader
+    must read live, so the renderer reads them on every frame in every engine. Sorted."""
+    live = live_keys(node, inputs, animated)
     out = set()
     for i in inputs:
-        if i.model and live(i.key):
+        if i.model and i.key in live:
             out.add(i.model)
         for models, keys, _ in i.derived:
-            if any(live(k) for k in keys):
+            if live.intersection(keys):
                 out.update(models)
     return tuple(sorted(out))
 
@@ -257,14 +276,44 @@ def _pick_vector(nt, given, fallback, location):
     return _by_id(mix.outputs, "Result_Vector")
 
 
+def _frame_group():
+    """The nested group that picks the shading frame the OSL shader reads: the Normal input where
+    linked (not zero), else the shading normal; the Tangent input likewise, else the tangent
+    radial about the object's z axis. One per file (``FRAME_GROUP``), shared by every face: its
+    nodes are the same for every material."""
+    import bpy
+
+    tree = bpy.data.node_groups.get(FRAME_GROUP)
+    if tree is not None and tree.library is None and len(tree.nodes) > 2:
+        return tree
+    tree = bpy.data.node_groups.new(FRAME_GROUP, "ShaderNodeTree")
+    for in_out in ("INPUT", "OUTPUT"):
+        for name in (NORMAL, TANGENT):
+            tree.interface.new_socket(name=name, in_out=in_out, socket_type="NodeSocketVector")
+    nt = tree
+    gin = nt.nodes.new("NodeGroupInput")
+    gin.location = (-X, 0.0)
+    geometry = nt.nodes.new("ShaderNodeNewGeometry")
+    geometry.location, geometry.hide = (0.0, 200.0), True
+    radial = nt.nodes.new("ShaderNodeTangent")
+    radial.direction_type, radial.axis, radial.location, radial.hide = "RADIAL", "Z", (0.0, 160.0), True
+    gout = nt.nodes.new("NodeGroupOutput")
+    gout.location = (4 * X, 0.0)
+    nt.links.new(_pick_vector(nt, gin.outputs[NORMAL], geometry.outputs["Normal"], (X, 200.0)), gout.inputs[NORMAL])
+    nt.links.new(_pick_vector(nt, gin.outputs[TANGENT], radial.outputs["Tangent"], (X, 160.0)), gout.inputs[TANGENT])
+    return tree
+
+
 def _by_id(sockets, identifier):
     return next(s for s in sockets if s.identifier == identifier)
 
 
-def wire(tree, inputs: list[FaceInput], script, group) -> None:
+def wire(tree, inputs: list[FaceInput], script, group, live=frozenset()) -> None:
     """Rebuild the group's inside around ``script`` (the Script node, or None) and ``group`` (the
     node group's node, or None; one whose group waits to be built is kept, unwired), which are
-    kept: everything else is made anew."""
+    kept: everything else is made anew. The inputs whose keys are ``live`` (linked or animated:
+    ``live_keys``; what the shader reads) are clamped to their fields' hard limits; the others
+    hold the panel's values, inside the limits already, which the shader bakes."""
     nt = tree
     for n in [n for n in nt.nodes if n not in (script, group)]:
         nt.nodes.remove(n)
@@ -280,18 +329,18 @@ def wire(tree, inputs: list[FaceInput], script, group) -> None:
     def port(key):
         return next(s for s in gin.outputs if s.identifier == keys[key])
 
-    geometry = nt.nodes.new("ShaderNodeNewGeometry")
-    geometry.location, geometry.hide = (0.0, 200.0), True
-    radial = nt.nodes.new("ShaderNodeTangent")
-    radial.direction_type, radial.axis, radial.location, radial.hide = "RADIAL", "Z", (0.0, 160.0), True
-    normal = _pick_vector(nt, port(NORMAL), geometry.outputs["Normal"], (X, 200.0))
-    tangent = _pick_vector(nt, port(TANGENT), radial.outputs["Tangent"], (X, 160.0))
-    feeds = {NORMAL: normal, TANGENT: tangent}
+    frame = nt.nodes.new("ShaderNodeGroup")
+    frame.node_tree, frame.location, frame.hide = _frame_group(), (X, 200.0), True
+    for name in (NORMAL, TANGENT):
+        nt.links.new(port(name), frame.inputs[name])
+    feeds = {NORMAL: frame.outputs[NORMAL], TANGENT: frame.outputs[TANGENT]}
     read = {sock.name for node in (script, group) if node is not None for sock in node.inputs}
     spec = {i.key: (k, i) for k, i in enumerate(inputs)}
     clamped = {}
 
     def clamp(key):
+        if key not in live:
+            return port(key)
         if key not in clamped:
             k, i = spec[key]
             clamped[key] = _clamped(nt, port(key), i, -40.0 * k)
@@ -315,6 +364,7 @@ def wire(tree, inputs: list[FaceInput], script, group) -> None:
                 nt.links.new(src, sock)
     gout = nt.nodes.new("NodeGroupOutput")
     gout.location = (7 * X, 0.0)
+    gout.inputs[THICKNESS].default_value = 0.0
     shaders = [n.outputs["BSDF"] for n in (group, script) if n is not None and "BSDF" in n.outputs]
     if script is not None and group is not None:
         from ..core.backends.osl import ENGINE_SWITCH

@@ -121,6 +121,7 @@ def ensure_face(mat, show: bool = False):
         # linked only where the output shows nothing (what the artist linked there stays)
         if show or not mat.lamella.compiled_json or not out.inputs["Surface"].is_linked:
             nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
+            link_thickness(nt, node)
     tree = node.node_tree
     if tree is None or not _is_face_tree(tree):
         tree = bpy.data.node_groups.new(f"Lamella {mat.name}", "ShaderNodeTree")
@@ -131,6 +132,25 @@ def ensure_face(mat, show: bool = False):
         tree.name = f"Lamella {mat.name}"
         node.node_tree = tree
     return node, tree
+
+
+def link_thickness(nt, node) -> None:
+    """Link the face's Thickness (EEVEE's, ``face.THICKNESS``) into every material output whose
+    surface the face feeds directly and whose Thickness is free: the face's own pair of sockets."""
+    for link in node.outputs["BSDF"].links:
+        out = link.to_node
+        if (out.bl_idname == "ShaderNodeOutputMaterial" and link.to_socket.name == "Surface"
+                and not out.inputs[face.THICKNESS].is_linked):
+            nt.links.new(node.outputs[face.THICKNESS], out.inputs[face.THICKNESS])
+
+
+def eevee_settings(mat, stack) -> None:
+    """The material settings EEVEE's glass needs: a base that transmits refracts by ray tracing
+    where the scene traces rays (else EEVEE shows only the light probes through it, never the
+    objects behind). The render method is left as it is: Dithered, the default, is the one that
+    ray-traces refraction. Thickness: ``face.THICKNESS``."""
+    if stack.base.kind.transmits and not mat.use_raytrace_refraction:
+        mat.use_raytrace_refraction = True
 
 
 TEXT_MARK = "lamella_shader"  # custom property of the Text datablocks Lamella writes shaders into
@@ -259,7 +279,11 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
     node, tree = ensure_face(mat)
     inputs = face.face_inputs(mat.lamella)
     before = animation.input_order(node)
+    had_thickness = face.THICKNESS in node.outputs
     face.sync_interface(tree, inputs)
+    if not had_thickness:  # a face of an earlier version: its Thickness goes where its surface goes
+        link_thickness(mat.node_tree, node)
+    eevee_settings(mat, stack)
     animation.remap(node, before)
     face.set_node_values(node, inputs)
     script = tree.nodes.get(SCRIPT)
@@ -279,7 +303,7 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
         group = tree.nodes.new("ShaderNodeGroup")
         group.name, group.label, group.width = GROUP, "Lamella (nodes)", 240.0
     rebuilt = install_group(mat, group, stack, model, shader, build=build_group or script is None)
-    face.wire(tree, inputs, script, group)
+    face.wire(tree, inputs, script, group, face.live_keys(node, inputs, animation.animated_paths(mat.node_tree)))
     animation.mirror_panel(mat)
     return rebuilt
 
@@ -290,8 +314,11 @@ def build_group(mat, stack, model: str, live_budget) -> bool | None:
     node, script, group = inner_nodes(mat)
     if node is None or group is None:
         return None
+    from .animation import animated_paths
+
     rebuilt = install_group(mat, group, stack, model, live_budget)
-    face.wire(node.node_tree, face.face_inputs(mat.lamella), script, group)
+    inputs = face.face_inputs(mat.lamella)
+    face.wire(node.node_tree, inputs, script, group, face.live_keys(node, inputs, animated_paths(mat.node_tree)))
     return rebuilt
 
 

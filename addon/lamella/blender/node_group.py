@@ -6,7 +6,8 @@ shading normal, and the tangent radial about the object's z, as in the OSL shade
 output. Inside it:
 
 - the local frame (the tangent made orthogonal to the normal, the bitangent) and the view
-  direction in it, from the Geometry node's Incoming (``_frame``);
+  direction in it, from the Geometry node's Incoming (``_frame``), a nested group every
+  material of the same frame shares (``_frame_group``);
 - the model's math as nested groups of at most ``CHUNK_NODES`` nodes (``_chunk_group``), one run
   of a section each, shared by name between every material and stack whose chunk is the same:
   an edit rebuilds only the chunks whose content changed;
@@ -28,6 +29,11 @@ from .osl_compile import set_socket
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
 SECTION_PREFIX = ".lamella_section_"
+FRAME_PREFIX = ".lamella_frame_"
+FRAME_VERSION = 1  # part of the frame groups' names: a change to ``_frame`` makes new ones
+FRAME_OUTPUTS = (("N", "NodeSocketVector"), ("T", "NodeSocketVector"), ("B", "NodeSocketVector"),
+                 ("V", "NodeSocketVector"), ("wi_x", "NodeSocketFloat"), ("wi_y", "NodeSocketFloat"),
+                 ("wi_z", "NodeSocketFloat"))
 X_STEP, Y_STEP = 180.0, 150.0
 
 
@@ -322,6 +328,45 @@ def _frame(g: _Vec, gin, tangent_input: bool, view_frame: bool = False):
     return n, t, b, v, wi
 
 
+def _frame_group(view_frame: bool):
+    """The nested group computing ``_frame`` (inputs Normal, Tangent; outputs ``FRAME_OUTPUTS``),
+    one per file for each kind of frame, shared by every material's group: its nodes are the same
+    for every stack."""
+    name = f"{FRAME_PREFIX}{'view' if view_frame else 'shading'}_{FRAME_VERSION}"
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None and tree.library is None and len(tree.nodes) > 2:
+        return tree
+    tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    for socket in ("Normal", "Tangent"):
+        _interface(tree, "INPUT", socket, "NodeSocketVector")
+    for socket, typ in FRAME_OUTPUTS:
+        _interface(tree, "OUTPUT", socket, typ)
+    g = _Vec(tree)
+    gin = tree.nodes.new("NodeGroupInput")
+    gin.location = (-X_STEP, 0.0)
+    n, t, b, v, wi = _frame(g, gin, tangent_input=True, view_frame=view_frame)
+    gout = tree.nodes.new("NodeGroupOutput")
+    gout.location = (g.x + 2 * X_STEP, 0.0)
+    for sock, src in zip(FRAME_OUTPUTS, (n, t, b, v, *wi)):
+        tree.links.new(src, gout.inputs[sock[0]])
+    for node in tree.nodes:
+        if node.bl_idname not in ("NodeGroupInput", "NodeGroupOutput"):
+            _constant_inputs(node)
+    return tree
+
+
+def _shared_frame(nt, gin, view_frame: bool, location):
+    """(N, T, B, V, wi) from the shared frame group (``_frame_group``), fed by ``gin``'s Normal and
+    Tangent."""
+    node = nt.nodes.new("ShaderNodeGroup")
+    node.node_tree = _frame_group(view_frame)
+    node.label, node.location = "frame", location
+    for socket in ("Normal", "Tangent"):
+        nt.links.new(gin.outputs[socket], node.inputs[socket])
+    out = [node.outputs[name] for name, _ in FRAME_OUTPUTS]
+    return out[0], out[1], out[2], out[3], out[4:]
+
+
 def _local_to_world(g: _Vec, comps, frame, src):
     """The world vector of local components ``comps`` (plan values): x T + y B + z N."""
     n, t, b, v, wi = frame
@@ -364,7 +409,7 @@ def build_group(plan: Plan, name: str, tree=None):
     g.x = -X_STEP
     for image, pixels in plan.images.items():
         material_table_image(image, pixels)
-    frame = _frame(g, gin, tangent_input=True, view_frame=plan.frame == "view")
+    frame = _shared_frame(nt, gin, plan.frame == "view", (-X_STEP, 400.0))
     wi = frame[4]
     leaf_src = {}
     convert = by_param(plan.ids)
@@ -386,15 +431,31 @@ def build_group(plan: Plan, name: str, tree=None):
 
     sections = partition(plan)
     outs: dict[Out, object] = {}
+    own: dict[int, object] = {}  # the nodes reading the material's own table, built here
 
     def src(v):
         if not isinstance(v, Out):
             return v
+        if v.node in own:
+            return _socket(own[v.node].outputs, v.socket)
         return leaf_src[v.node] if v.node < 0 else outs[v]
 
     frames = {}
     col = defaultdict(int)
     for c in sections:
+        if c.own:
+            for k, i in enumerate(c.nodes):
+                n = plan.nodes[i]
+                node = own[i] = _new_node(nt, n.bl_idname, n.props,
+                                          ((len(frames) * 2 + 1) * X_STEP, -(col["own"] + k) * Y_STEP))
+                for ident, v in n.inputs.items():
+                    if isinstance(v, Out):
+                        nt.links.new(src(v), _socket(node.inputs, ident))
+                    else:
+                        _socket(node.inputs, ident).default_value = float(v)
+                _constant_inputs(node)
+            col["own"] += len(c.nodes)
+            continue
         sub = _section_group(plan, c)
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = sub

@@ -227,16 +227,6 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
     bl_idname = "lamella.layer_remove"
     bl_label = "Remove Layer"
 
-    @classmethod
-    def poll(cls, context):
-        if not super().poll(context):
-            return False
-        mat = context_material(context)
-        if mat is not None and cls._qualifies(mat) and not mat.lamella.coats:
-            cls.poll_message_set("There is no coat to remove (the base stays)")
-            return False
-        return True
-
     def run(self, context, mat):
         from . import recompile
 

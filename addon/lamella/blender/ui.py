@@ -104,6 +104,11 @@ def draw_status(layout, context, mat) -> None:
                       "scene renders faster.")
     elif sc.render.engine != "CYCLES" and sc.render.engine.startswith("BLENDER_EEVEE"):
         note = iface_("EEVEE renders the node group: anisotropic lobes are shown isotropic.")
+        if BASE_KINDS[s.base.kind].transmits:
+            note += " " + iface_("Glass refracts once, where light enters (Lamella's Thickness 0): the back of a "
+                                 "solid object does not refract again. It shows the objects behind it only with "
+                                 "the scene's Ray Tracing on, and only what is on screen; elsewhere the light "
+                                 "probes (the world).")
         if s.node_tables:
             note += " " + iface_("It reads its linked inputs from tables over their range: {tables} (values outside "
                                  "are clamped).").format(tables=s.node_tables)

@@ -560,7 +560,10 @@ def fits_svm(plan: Plan) -> bool:
 class Chunk:
     """A run of plan nodes (indices ``nodes``) built as one nested group: its inputs are the
     outside values it reads, its outputs the values read after it. A section is a chunk of
-    chunks (``parts``): a second level of nesting, so that no tree holds many links either."""
+    chunks (``parts``): a second level of nesting, so that no tree holds many links either.
+    An ``own`` chunk is a run of nodes that read the material's own table (``own_nodes``), built
+    in the material's group itself rather than nested, so that every nested group depends on the
+    stack's structure alone and materials of one structure share them."""
 
     scope: str
     nodes: list
@@ -568,51 +571,84 @@ class Chunk:
     outputs: list = field(default_factory=list)
     parts: list = field(default_factory=list)
     digest: str = ""
+    own: bool = False
 
 
-def _io(chunks: list[Chunk], owner: dict, plan: Plan, reads) -> None:
+def own_nodes(plan: Plan) -> frozenset[int]:
+    """The plan nodes that read the material's own table images (``Plan.images``)."""
+    return frozenset(i for i, n in enumerate(plan.nodes) if n.props.get("image") in plan.images)
+
+
+def _stratified(plan: Plan, own: frozenset[int]) -> list[int]:
+    """The plan's nodes in an order that keeps every node after what it reads and gathers the
+    ``own`` nodes into as few runs as possible: a node's stratum is the most ``own`` nodes on a
+    path into it; each stratum's other nodes come first, then its ``own`` nodes."""
+    level: dict[int, int] = {}
+    for i, n in enumerate(plan.nodes):
+        deps = [v.node for v in n.inputs.values() if isinstance(v, Out) and v.node >= 0]
+        level[i] = max((level[d] + (d in own) for d in deps), default=0)
+    return sorted(range(len(plan.nodes)), key=lambda i: (level[i], i in own, i))
+
+
+def _io(chunks: list[Chunk], owner: dict, plan: Plan, reads, extra=()) -> None:
     """Fill the inputs (outside values read, in first-read order) and outputs (values read by
-    another chunk or by the BSDF nodes) of ``chunks``; ``reads(c)`` lists the values ``c`` reads."""
+    another chunk, by ``extra`` readers or by the BSDF nodes) of ``chunks``; ``reads(c)`` lists the
+    values ``c`` reads."""
     wanted: dict[int, list] = {id(c): [] for c in chunks}
     for c in chunks:
-        c.inputs = list(dict.fromkeys(v for v in reads(c) if v.node < 0 or owner[v.node] is not c))
+        c.inputs = list(dict.fromkeys(v for v in reads(c) if v.node < 0 or owner.get(v.node) is not c))
         for v in c.inputs:
-            if v.node >= 0:
+            if v.node in owner:
                 wanted[id(owner[v.node])].append(v)
-    for v in plan.outputs:
-        if v.node >= 0:
+    for v in [*extra, *plan.outputs]:
+        if v.node in owner:
             wanted[id(owner[v.node])].append(v)
     for c in chunks:
         c.outputs = list(dict.fromkeys(wanted[id(c)]))
 
 
 def partition(plan: Plan, size: int = CHUNK_NODES, per_section: int = SECTION_CHUNKS) -> list[Chunk]:
-    """Cut the plan's nodes, in order, into chunks of at most ``size`` nodes that never span two
-    scopes of the model, and group consecutive chunks of one scope into sections of at most
-    ``per_section`` chunks. Returns the sections, each with its chunks as ``parts``; every chunk
-    and section has its inputs, outputs and a digest of its content (names the nested group)."""
+    """Cut the plan's nodes (in ``_stratified`` order) into chunks of at most ``size`` nodes that
+    never span two scopes of the model nor an ``own`` node, and group consecutive chunks of one
+    scope into sections of at most ``per_section`` chunks. Returns the sections and the ``own``
+    chunks in the order to build them, each section with its chunks as ``parts``; every chunk and
+    section has its inputs, outputs and a digest of its content (names the nested group)."""
+    own = own_nodes(plan)
+    items: list[Chunk] = []  # sections and own chunks, in order
     chunks: list[Chunk] = []
-    for i, n in enumerate(plan.nodes):
-        if not chunks or chunks[-1].scope != n.scope or len(chunks[-1].nodes) >= size:
+    last = None
+    for i in _stratified(plan, own):
+        n = plan.nodes[i]
+        if i in own:
+            if last is None or not last.own:
+                last = Chunk(n.scope, [], own=True)
+                items.append(last)
+            last.nodes.append(i)
+            continue
+        if last is None or last.own or last.scope != n.scope:
+            last = None
+        if last is None or len(last.parts[-1].nodes) >= size:
+            if last is None or len(last.parts) >= per_section:
+                last = Chunk(n.scope, [])
+                items.append(last)
             chunks.append(Chunk(n.scope, []))
-        chunks[-1].nodes.append(i)
-    sections: list[Chunk] = []
-    for c in chunks:
-        if not sections or sections[-1].scope != c.scope or len(sections[-1].parts) >= per_section:
-            sections.append(Chunk(c.scope, []))
-        sections[-1].parts.append(c)
-        sections[-1].nodes += c.nodes
+            last.parts.append(chunks[-1])
+        last.parts[-1].nodes.append(i)
+        last.nodes.append(i)
+    sections = [s for s in items if not s.own]
 
     def node_reads(c):
         return [v for i in c.nodes for v in plan.nodes[i].inputs.values() if isinstance(v, Out)]
 
-    _io(chunks, {i: c for c in chunks for i in c.nodes}, plan, node_reads)
-    _io(sections, {i: s for s in sections for i in s.nodes}, plan, lambda s: [v for c in s.parts for v in c.inputs])
+    own_reads = [v for i in sorted(own) for v in plan.nodes[i].inputs.values() if isinstance(v, Out)]
+    _io(chunks, {i: c for c in chunks for i in c.nodes}, plan, node_reads, own_reads)
+    _io(sections, {i: s for s in sections for i in s.nodes}, plan,
+        lambda s: [v for c in s.parts for v in c.inputs], own_reads)
     for c in chunks:
         c.digest = _chunk_digest(plan, c)
     for s in sections:
         s.digest = _section_digest(plan, s)
-    return sections
+    return items
 
 
 def _hash(obj) -> str:
