@@ -468,7 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
                                        "eevee-closures", "eevee-gap", "shells",
                                        "trapping", "lobe-floor", "pareto", "materialx", "scene"])
     p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
-    p.add_argument("--quick", action="store_true", help="pareto: two stacks, 32 px, two sample counts")
+    p.add_argument("--quick", action="store_true", help="pareto: one scattering stack, 32 px, two sample counts")
     p.add_argument("--count", type=_count("--count"), help="scene: how many objects and materials (default 200)")
     p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
     p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")

@@ -1,5 +1,5 @@
-"""`lamella bench pareto --quick`: the run-time-against-error benchmark runs end to end on two
-stacks (every variant, the brute force, the cost sweeps, the plots and the tables), and what it
+"""`lamella bench pareto --quick`: the run-time-against-error benchmark runs end to end on a
+scattering stack (every variant, the brute force, the cost sweeps, the plots and the tables), and what it
 measures says what the product claims: the staged shader is more accurate than the Principled
 stand-in, and brute force converges with samples."""
 import json
