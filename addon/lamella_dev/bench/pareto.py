@@ -75,7 +75,7 @@ class Settings:
 FULL = Settings(cases=tuple(suite.names()), res=RES, ladder=(4, 16, 64, 256), brute_ladder=(16, 64, 256),
                 coats=(1, 2, 4, 6, 8), depths=(0.1, 1.0, 4.0, 16.0), cost_spp=128)
 QUICK = Settings(cases=("fog_g09_d1",), res=32, ladder=(4, 16), brute_ladder=(16, 64), coats=(1, 8),
-                 depths=(0.1, 4.0), cost_spp=16)
+                 depths=(0.1, 4.0), cost_spp=8)
 
 
 @dataclass
