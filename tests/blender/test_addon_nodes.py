@@ -157,21 +157,13 @@ def test_the_group_shows_no_unlinked_value_inside_its_math(addon):
     ("gold_coated", "coat0_roughness", None),   # roughness as Blender's r (alpha = r^2)
     ("varnished_wood", "base_albedo", None),    # an RGB field as one colour socket
 ])
-def test_sockets_speak_the_panels_units(addon, request, case, socket, value):
+def test_sockets_speak_the_panels_units(addon, case, socket, value):
     """A node linked into a socket with the stack's own value, in the panel's units (Blender's
     roughness r, a colour), renders what the unlinked material renders, in Cycles with OSL and
     with the node group (the linked parameter is read live, the rest from the table), and the
-    Script node shows no internal input.
-
-    Blender 4.2 and 4.5 render gold_coated's node group with a live coat roughness 4 % brighter
-    than its OSL shader in SVM (mean 0.1195 against 0.1146; a live base colour is exact there, and
-    Blender 5.0 is exact): not found yet, so expected to fail before 5.0 (strict: a fix shows)."""
-    import bpy
-
-    if case == "gold_coated" and bpy.app.version < (5, 0, 0):
-        request.applymarker(pytest.mark.xfail(
-            strict=True, reason="Blender before 5.0: the live coat-roughness node group differs from OSL by 4 % in SVM"))
-
+    Script node shows no internal input. (Blender 4.2 and 4.5 rendered the live coat roughness 4 %
+    too bright in SVM while nested groups passed vectors and colours through float sockets, which
+    those versions convert: the sockets now carry each value's type, ``node_graph.value_type``.)"""
     sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
     sc.cycles.filter_width = 0.01
     mat = new_material(sphere)
@@ -201,4 +193,4 @@ def test_sockets_speak_the_panels_units(addon, request, case, socket, value):
         assert a.max() > 0.05
         rel_l1 = np.abs(b - a).sum() / a.sum()
         assert rel_l1 < 5e-3, (osl, rel_l1)  # baked against traced: <= 0.5 % (bench staging)
-    bpy.data.materials.remove(mat)
+    addon.data.materials.remove(mat)

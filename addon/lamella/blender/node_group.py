@@ -23,7 +23,7 @@ from collections import defaultdict
 import bpy
 
 from ..core import luts
-from ..core.backends.node_graph import Out, Plan, input_name, partition
+from ..core.backends.node_graph import Out, Plan, input_name, partition, value_type
 from ..core.backends.sockets import by_param, sockets
 from .osl_compile import set_socket
 
@@ -218,12 +218,17 @@ def _constant_inputs(node) -> None:
 
 
 def _new_tree(plan: Plan, name: str, chunk):
+    """A nested group whose sockets carry the chunk's values with their types (``value_type``: a
+    vector or colour passed through a float socket would be converted, as Blender converts links)."""
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for k, v in enumerate(chunk.inputs):
-        _interface(tree, "INPUT", input_name(plan, v, k), "NodeSocketFloat")
-    for k in range(len(chunk.outputs)):
-        _interface(tree, "OUTPUT", f"out{k}", "NodeSocketFloat")
+        _interface(tree, "INPUT", input_name(plan, v, k), _SOCKET_TYPES[value_type(plan, v)])
+    for k, v in enumerate(chunk.outputs):
+        _interface(tree, "OUTPUT", f"out{k}", _SOCKET_TYPES[value_type(plan, v)])
     return tree
+
+
+_SOCKET_TYPES = {"float": "NodeSocketFloat", "vector": "NodeSocketVector", "color": "NodeSocketColor"}
 
 
 def _section_group(plan: Plan, section):

@@ -655,6 +655,18 @@ def _hash(obj) -> str:
     return hashlib.sha1(json.dumps(obj).encode()).hexdigest()[:12]
 
 
+_VECTOR_OUTPUTS = {"Vector", "Result_Vector", "Normal"}
+_COLOR_OUTPUTS = {"Color", "Result_Color"}
+
+
+def value_type(plan: Plan, v: Out) -> str:
+    """What a plan value is: "vector" (a Combine XYZ's, a vector Mix's), "color" (an Image
+    Texture's) or "float" (every leaf and every other output)."""
+    if v.node < 0:
+        return "float"
+    return "vector" if v.socket in _VECTOR_OUTPUTS else "color" if v.socket in _COLOR_OUTPUTS else "float"
+
+
 def input_name(plan: Plan, v: Out, k: int) -> str:
     """The socket name of a nested group's k-th input: the leaf's own name, else ``in<k>``."""
     return plan.leaves[-1 - v.node] if v.node < 0 else f"in{k}"
@@ -673,7 +685,7 @@ def _chunk_digest(plan: Plan, c: Chunk) -> str:
 
     body = [[plan.nodes[i].bl_idname, sorted(plan.nodes[i].props.items()),
              sorted((s, ref(v)) for s, v in plan.nodes[i].inputs.items())] for i in c.nodes]
-    names = [input_name(plan, v, k) for k, v in enumerate(c.inputs)]
+    names = [(input_name(plan, v, k), value_type(plan, v)) for k, v in enumerate(c.inputs)]
     return _hash([body, [ref(v) for v in c.outputs], names])
 
 
@@ -685,7 +697,7 @@ def _section_digest(plan: Plan, s: Chunk) -> str:
         return list(made[v]) if v in made else f"i{inputs[v]}"
 
     wiring = [[c.digest, [ref(v) for v in c.inputs]] for c in s.parts]
-    names = [input_name(plan, v, k) for k, v in enumerate(s.inputs)]
+    names = [(input_name(plan, v, k), value_type(plan, v)) for k, v in enumerate(s.inputs)]
     return _hash([wiring, [ref(v) for v in s.outputs], names])
 
 
