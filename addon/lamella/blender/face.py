@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import AXES, socket_name
+from .node_group import shared_group
 from .osl_compile import set_socket
 
 FACE = "Lamella"  # the face node's name in the material
@@ -279,14 +280,12 @@ def _pick_vector(nt, given, fallback, location):
 def _frame_group():
     """The nested group that picks the shading frame the OSL shader reads: the Normal input where
     linked (not zero), else the shading normal; the Tangent input likewise, else the tangent
-    radial about the object's z axis. One per file (``FRAME_GROUP``), shared by every face: its
-    nodes are the same for every material."""
-    import bpy
+    radial about the object's z axis. One per file (``FRAME_GROUP``), shared by every face
+    (``node_group.shared_group``)."""
+    return shared_group(FRAME_GROUP, _build_frame_group)
 
-    tree = bpy.data.node_groups.get(FRAME_GROUP)
-    if tree is not None and tree.library is None and len(tree.nodes) > 2:
-        return tree
-    tree = bpy.data.node_groups.new(FRAME_GROUP, "ShaderNodeTree")
+
+def _build_frame_group(tree) -> None:
     for in_out in ("INPUT", "OUTPUT"):
         for name in (NORMAL, TANGENT):
             tree.interface.new_socket(name=name, in_out=in_out, socket_type="NodeSocketVector")
@@ -301,7 +300,6 @@ def _frame_group():
     gout.location = (4 * X, 0.0)
     nt.links.new(_pick_vector(nt, gin.outputs[NORMAL], geometry.outputs["Normal"], (X, 200.0)), gout.inputs[NORMAL])
     nt.links.new(_pick_vector(nt, gin.outputs[TANGENT], radial.outputs["Tangent"], (X, 160.0)), gout.inputs[TANGENT])
-    return tree
 
 
 def _by_id(sockets, identifier):

@@ -333,15 +333,25 @@ def _frame(g: _Vec, gin, tangent_input: bool, view_frame: bool = False):
     return n, t, b, v, wi
 
 
-def _frame_group(view_frame: bool):
-    """The nested group computing ``_frame`` (inputs Normal, Tangent; outputs ``FRAME_OUTPUTS``),
-    one per file for each kind of frame, shared by every material's group: its nodes are the same
-    for every stack."""
-    name = f"{FRAME_PREFIX}{'view' if view_frame else 'shading'}_{FRAME_VERSION}"
+def shared_group(name: str, build):
+    """The file's nested group ``name``, which every material shares (its nodes are the same for
+    all): ``build(tree)`` fills a new one where there is none of this file's own."""
     tree = bpy.data.node_groups.get(name)
     if tree is not None and tree.library is None and len(tree.nodes) > 2:
         return tree
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    build(tree)
+    return tree
+
+
+def _frame_group(view_frame: bool):
+    """The nested group computing ``_frame`` (inputs Normal, Tangent; outputs ``FRAME_OUTPUTS``),
+    one per file for each kind of frame (``shared_group``)."""
+    return shared_group(f"{FRAME_PREFIX}{'view' if view_frame else 'shading'}_{FRAME_VERSION}",
+                        lambda tree: _build_frame_group(tree, view_frame))
+
+
+def _build_frame_group(tree, view_frame: bool) -> None:
     for socket in ("Normal", "Tangent"):
         _interface(tree, "INPUT", socket, "NodeSocketVector")
     for socket, typ in FRAME_OUTPUTS:
@@ -357,7 +367,6 @@ def _frame_group(view_frame: bool):
     for node in tree.nodes:
         if node.bl_idname not in ("NodeGroupInput", "NodeGroupOutput"):
             _constant_inputs(node)
-    return tree
 
 
 def _shared_frame(nt, gin, view_frame: bool, location):
