@@ -256,8 +256,8 @@ def cmd_export_osl(a) -> int:
     """Write the OSL bundle of a stack: the shader, the look-up tables it reads (``luts/``) and a
     README. An ``-o`` ending in ``.osl`` names the shader file (the bundle goes beside it);
     anything else is the bundle folder."""
-    from lamella.core.backends.osl import VIEW_TARGETS
-    from lamella.core.backends.osl_bundle import bundle_files, write_bundle
+    from lamella.core.backends.osl.emit import VIEW_TARGETS
+    from lamella.core.backends.osl.bundle import bundle_files, write_bundle
     from lamella.core.models import UnsupportedStack, resolve
 
     if a.target not in VIEW_TARGETS:

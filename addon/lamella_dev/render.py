@@ -130,7 +130,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
     bpy = _bpy()
     mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":
-        from lamella.core.backends.osl import osl_shader
+        from lamella.core.backends.osl.emit import osl_shader
         from lamella.blender.osl_compile import assign_script
 
         node = nt.nodes.new("ShaderNodeScript")
@@ -139,7 +139,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
         assign_script(node, bpy.data.texts.new(name), shader.source, name, shader.socket_values)
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     elif engine in ("cycles-nodes", "eevee"):
-        from lamella.core.backends.node_graph import emit_plan
+        from lamella.core.backends.nodes.lower import emit_plan
         from lamella.blender.node_group import build_group, group_name
 
         group = build_group(emit_plan(stack, model, budget=budget, staged=staged, live=live,

@@ -39,7 +39,7 @@ def test_cycles_without_osl_renders_the_node_group_and_the_same_image(addon):
 def test_the_osl_shader_switches_itself_in(addon):
     """The Lamella node's group ends in a Mix Shader whose factor (0: the node group) the OSL
     shader's ``lamella_osl`` output drives (the shader sets it to 1 where it runs)."""
-    from lamella.core.backends.osl import ENGINE_SWITCH
+    from lamella.core.backends.osl.emit import ENGINE_SWITCH
 
     mat = addon.data.materials.new("switch")
     api.apply_stack(mat, suite.load("gold_coated"))

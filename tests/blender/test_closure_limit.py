@@ -8,8 +8,8 @@ import pytest
 pytest.importorskip("bpy")
 from lamella_dev.render import assign_material, build_scene, render_scene, sphere_material  # noqa: E402
 from lamella.core import api  # noqa: E402
-from lamella.core.backends import lobe_budget  # noqa: E402
-from lamella.core.backends.staging import stage  # noqa: E402
+from lamella.core.backends.ir import lobe_budget  # noqa: E402
+from lamella.core.backends.ir.staging import stage  # noqa: E402
 
 
 def _furnace_centre(build, res: int = 16, spp: int = 64) -> np.ndarray:

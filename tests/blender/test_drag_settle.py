@@ -9,7 +9,7 @@ from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api, material_nodes, recompile  # noqa: E402
-from lamella.core.backends import staging  # noqa: E402
+from lamella.core.backends.ir import staging  # noqa: E402
 
 from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
 
@@ -29,7 +29,7 @@ def _stack(r: float) -> Stack:
 
 def _fresh_source(r: float) -> str:
     from lamella.core import luts
-    from lamella.core.backends.osl import osl_shader
+    from lamella.core.backends.osl.emit import osl_shader
 
     return osl_shader(_stack(r), lut_dir=str(luts.DATA_DIR), engine_switch=True).source
 

@@ -14,8 +14,8 @@ pytest.importorskip("bpy")
 from lamella_dev.bench.node_cost import _render, textured_sockets  # noqa: E402
 from lamella_dev.bench.recompile import _stack  # noqa: E402
 from lamella_dev.render import assign_material, build_scene  # noqa: E402
-from lamella.core.backends.live_axes import MAX_AXES  # noqa: E402
-from lamella.core.backends.node_graph import emit_plan  # noqa: E402
+from lamella.core.backends.ir.live_axes import MAX_AXES  # noqa: E402
+from lamella.core.backends.nodes.lower import emit_plan  # noqa: E402
 
 from .test_osl_exactness import SUN  # noqa: E402
 

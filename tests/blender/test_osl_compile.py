@@ -7,7 +7,7 @@ import bpy  # noqa: E402
 
 from lamella.blender import osl_compile  # noqa: E402
 from lamella_dev import suite  # noqa: E402
-from lamella.core.backends.osl import emit_osl  # noqa: E402
+from lamella.core.backends.osl.emit import emit_osl  # noqa: E402
 
 BROKEN = """shader broken(output closure color BSDF = 0)
 {

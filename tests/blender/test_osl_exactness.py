@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from lamella_dev import suite
-from lamella.core.backends import staging
+from lamella.core.backends.ir import staging
+from lamella.core.backends.evaluate import evaluate_staged
 
 pytest.importorskip("bpy")
 from lamella_dev.render import render_stack  # noqa: E402
@@ -87,7 +88,7 @@ def _check(stack, sun, open_back, model="auto"):
     lit = hit & facing & (wi[..., 2] > 0.05)
     # the shader rendered is the staged one (table, merged lobes): its numpy twin is the yardstick;
     # tests/unit/test_staging.py holds the staged shader to the traced model
-    f = staging.evaluate_staged(staging.stage(stack, model), wi[lit], wo[lit]).astype(np.float64) * 3.0
+    f = evaluate_staged(staging.stage(stack, model), wi[lit], wo[lit]).astype(np.float64) * 3.0
     g = px[..., :3][lit]
     peak = f.max()
     core = (wi[lit][:, 2] > 0.5)

@@ -12,8 +12,8 @@ import pytest
 
 from lamella.core import luts
 from lamella_dev import suite
-from lamella.core.backends.osl import VIEW_LINES, VIEW_TARGETS, emit_osl
-from lamella.core.backends.osl_bundle import README, TABLES_DIR, write_bundle
+from lamella.core.backends.osl.emit import VIEW_LINES, VIEW_TARGETS, emit_osl
+from lamella.core.backends.osl.bundle import README, TABLES_DIR, write_bundle
 
 bpy = pytest.importorskip("bpy")  # the wheel is part of `make test`'s set-up
 import _cycles  # noqa: E402  (Cycles' Python module, available once bpy is imported)

@@ -16,7 +16,7 @@ pytest.importorskip("bpy")
 
 from lamella.core import luts  # noqa: E402
 from lamella.core.backends.numpy_ops import _multilinear  # noqa: E402
-from lamella.core.backends.osl import LUT_HEADER, OSL_DIR  # noqa: E402
+from lamella.core.backends.osl.emit import LUT_HEADER, OSL_DIR  # noqa: E402
 
 RES = 24
 TOLERANCE = 1e-4  # absolute, every table's values are within [-1, 1]

@@ -8,18 +8,19 @@ of colour c is the coat of thickness 1 and absorption -ln c, an artist metal the
 Gulbrandsen 2014's eta and k (``lamella.core.metals.artistic_to_complex``). Every model routes on
 what a kind can do; a model that branched on type names would give the new kinds nothing (or
 fail) and these tests would show it."""
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 import lamella.core as lc
-from lamella.core import lobe_kinds, metals
-from lamella.core.backends import lobe_budget, traced_ops
-from lamella.core.backends.node_graph import emit_plan
+from lamella.core import lobe_kinds, metals, models
+from lamella.core.backends.ir import lobe_budget, traced_ops
+from lamella.core.backends.nodes.lower import emit_plan
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.backends.osl import emit_osl
-from lamella.core.backends.trace import Tracer
+from lamella.core.backends.osl.emit import emit_osl
+from lamella.core.backends.ir.trace import Tracer
 from lamella.core.layers import BASE_KINDS, COAT_KINDS, StackError
 from lamella.core.layers.schema import FLOAT, Field, layer_kind
 from lamella.core.models import MODELS, UnsupportedStack
@@ -226,15 +227,32 @@ def test_the_traced_operation_folds_keeps_the_precision_and_prints():
         t.param("coat0_p", 0.5)  # a parameter says what it is
 
 
+def _no(*args):
+    return None
+
+
 def test_registries_refuse_clashes_and_incomplete_kinds():
     with pytest.raises(ValueError, match="registered already"):
         lc.layers.register(COAT_KINDS["tinted_lacquer"])
-    with pytest.raises(ValueError, match="exists already"):
-        traced_ops.register(traced_ops.OPS["sqrt"])
-    with pytest.raises(ValueError, match="exists already"):
-        traced_ops.register(traced_ops.TracedOp("clamp", 3, None, None, "clamp", None, "a method of the ops"))
     with pytest.raises(ValueError, match="registered already"):
-        lobe_kinds.register(lobe_kinds.KINDS["diffuse"], None, None)
+        lc.layers.register(dataclasses.replace(COAT_KINDS["tinted_lacquer"], role="base"))  # one name, both roles
+    with pytest.raises(ValueError, match="registered already"):
+        traced_ops.register(traced_ops.OPS["sqrt"])
+    with pytest.raises(ValueError, match="NumpyOps, Tracer has a method"):
+        traced_ops.register(traced_ops.TracedOp("clamp", 3, _no, _no, "clamp", _no, "a method of the ops"))
+    with pytest.raises(TypeError, match="lacks fold"):
+        traced_ops.register(traced_ops.TracedOp("half", 1, _no, None, "{0} * 0.5", _no, "no folding"))
+    with pytest.raises(ValueError, match="registered already"):
+        lobe_kinds.register(lobe_kinds.KINDS["diffuse"])
+    with pytest.raises(TypeError, match="lacks node"):
+        lobe_kinds.register(dataclasses.replace(lobe_kinds.KINDS["diffuse"], name="unbuilt", node=None))
+    with pytest.raises(ValueError, match="registered already"):
+        models.register(MODELS["tm6"])
+    with pytest.raises(TypeError, match="lacks run"):
+        models.register(type("Runless", (), {"name": "runless"})())
+    with pytest.raises(ValueError, match="'auto'"):
+        models.register(type("Auto", (), {"name": "auto", "run": _no})())
+    assert not {"half", "clamp"} & set(traced_ops.OPS) and not {"runless", "auto"} & set(MODELS)
     f = Field("ior", FLOAT, 1.5, "index", lo=1.0, hi=2.0)
     with pytest.raises(ValueError, match="'roughness' and 'rotation'"):
         layer_kind("no_interface_coat", "coat", "C", (f,), "doc", lambda *a: {})

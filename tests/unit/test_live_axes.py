@@ -14,12 +14,13 @@ from lamella_dev.bench.linked_tables import rows as rows_of
 from lamella_dev.bench.node_cost import textured_sockets
 from lamella_dev.bench.recompile import STACKS
 from lamella_dev.bench.recompile import _stack as _case_stack
-from lamella.core.backends import staging
-from lamella.core.backends.closures import trace_closures
-from lamella.core.backends.live_axes import MAX_AXES, axis_of, lookup_axes
-from lamella.core.backends.node_graph import emit_plan, evaluate_plan
+from lamella.core.backends.ir import staging
+from lamella.core.backends.ir.closures import trace_closures
+from lamella.core.backends.ir.live_axes import MAX_AXES, axis_of, lookup_axes
+from lamella.core.backends.nodes.lower import emit_plan
+from lamella.core.backends.evaluate import evaluate_plan
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.backends.staging import StagedOps
+from lamella.core.backends.ir.staging import StagedOps
 
 
 def _stack(label):

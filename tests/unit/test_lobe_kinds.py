@@ -1,15 +1,25 @@
-"""The lobe kinds and each backend's table of them: every kind the core knows is printed by the OSL
-backend and built by the node-graph backend, and neither backend knows a kind the core does not."""
+"""The lobe kinds: each is one record (evaluated in numpy, printed in OSL, built from Blender nodes),
+and the registry refuses a kind that lacks a part or reuses a name."""
+import dataclasses
+
+import pytest
+
 from lamella.core import lobe_kinds
-from lamella.core.backends.bsdf_nodes import BSDF_NODES, BsdfNode
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.backends.osl_closures import CLOSURES
-from lamella.core.models.adding_doubling import Lobe
+from lamella.core.lobe_kinds import BsdfNode
+from lamella.core.models.types import Lobe
 from lamella.core.models.rgb import RGB
 
 
-def test_every_lobe_kind_has_its_osl_closure_and_its_blender_node():
-    assert set(CLOSURES) == set(lobe_kinds.KINDS) == set(BSDF_NODES)
+def test_the_registry_refuses_an_incomplete_or_clashing_kind():
+    reflection = lobe_kinds.KINDS["reflection"]
+    with pytest.raises(ValueError, match="registered already"):
+        lobe_kinds.register(reflection)
+    with pytest.raises(TypeError, match="lacks osl"):
+        lobe_kinds.register(dataclasses.replace(reflection, name="no_printer", osl=None))
+    with pytest.raises(ValueError, match="side"):
+        lobe_kinds.register(dataclasses.replace(reflection, name="sideways", side="up"))
+    assert "no_printer" not in lobe_kinds.KINDS and "sideways" not in lobe_kinds.KINDS
 
 
 def test_each_backend_renders_each_kind_from_its_arguments():
@@ -19,7 +29,7 @@ def test_each_backend_renders_each_kind_from_its_arguments():
     lobe = Lobe(RGB.splat(0.5), 0.2, 0.1, 0.3, eta=1.4)
     for name, kind in lobe_kinds.KINDS.items():
         args = kind.args(ops, Lobe(lobe.weight, lobe.alpha_x, lobe.alpha_y, lobe.rotation, name, lobe.eta), wi)
-        printed = CLOSURES[name]({k: f"a_{k}" for k in args})
+        printed = kind.osl({k: f"a_{k}" for k in args})
         assert printed.endswith(")") and all(f"a_{k}" in printed for k in args), (name, printed)
-        node = BSDF_NODES[name](ops, args, wi)
+        node = kind.node(ops, args, wi)
         assert isinstance(node, BsdfNode) and node.bl_idname.startswith("ShaderNodeBsdf"), name

@@ -126,7 +126,7 @@ def test_transmission_lobe_carries_its_weight(eta, alpha, degrees):
     transmits its weight, up to what falls above the horizon (nothing for these lobes), also with
     the closure normal tilted away from the view (mu' < 1)."""
     from lamella.core import lobe_kinds
-    from lamella.core.models.adding_doubling import Lobe
+    from lamella.core.models.types import Lobe
 
     ops = NumpyOps()
     kind = lobe_kinds.kind("transmission")
@@ -193,7 +193,7 @@ def test_every_file_holds_its_atlas_above_its_mirror_image():
     value (``luts.to_file``), and the header the shaders inline reads it at half its t."""
     import OpenEXR
 
-    from lamella.core.backends.osl import LUT_HEADER, OSL_DIR
+    from lamella.core.backends.osl.emit import LUT_HEADER, OSL_DIR
 
     files = {s.file: s.channel for s in luts.SPECS.values()} | {f: "RGBA" for f in luts.PACKED.values()}
     for fname, channel in files.items():

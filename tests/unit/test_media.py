@@ -211,8 +211,8 @@ def test_medium_shader_cost_does_not_depend_on_depth():
     import re
 
     from lamella_dev import suite
-    from lamella.core.backends.osl import emit_osl
-    from lamella.core.backends.staging import stage
+    from lamella.core.backends.osl.emit import emit_osl
+    from lamella.core.backends.ir.staging import stage
 
     def body(name):
         src = emit_osl(suite.load(name), name="s", staged=False)

@@ -14,11 +14,15 @@ import pytest
 
 from lamella.core import Stack
 from lamella_dev import suite
-from lamella.core.backends import node_graph, staging
-from lamella.core.backends.node_graph import CHUNK_NODES, emit_plan, evaluate_plan, partition
+from lamella.core.backends import evaluate
+from lamella.core.backends.ir import staging
+from lamella.core.backends.evaluate import evaluate_plan
+from lamella.core.backends.nodes.lower import emit_plan
+from lamella.core.backends.nodes.partition import CHUNK_NODES, SECTION_CHUNKS, own_nodes, partition
+from lamella.core.backends.nodes.plan import Out, texel_range
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.backends.staging import StagedOps
-from lamella.core.backends.bsdf_nodes import blender_anisotropy
+from lamella.core.backends.ir.staging import StagedOps
+from lamella.core.lobe_kinds.bsdf_node import blender_anisotropy
 
 CASES = suite.names()
 
@@ -103,18 +107,18 @@ def test_partition_covers_every_node_once_in_bounded_groups(live):
     sections = [s for s in items if not s.own]
     chunks = [c for s in sections for c in s.parts]
     own = [i for s in items if s.own for i in s.nodes]
-    assert own and set(own) == node_graph.own_nodes(plan)  # the material's table reads
+    assert own and set(own) == own_nodes(plan)  # the material's table reads
     seen = [i for c in chunks for i in c.nodes] + own
     assert sorted(seen) == list(range(len(plan.nodes)))
     assert max(len(c.nodes) for c in chunks) <= CHUNK_NODES
-    assert max(len(s.parts) for s in sections) <= node_graph.SECTION_CHUNKS
+    assert max(len(s.parts) for s in sections) <= SECTION_CHUNKS
     assert all(len({plan.nodes[i].scope for i in c.nodes}) == 1 for c in chunks)
     # built in order, each reads only leaves and what was built before it
     built: set = set()
     for item in items:
         for part in (item.parts or [item]):
             reads = part.inputs if not part.own else [v for i in part.nodes for v in plan.nodes[i].inputs.values()
-                                                      if isinstance(v, node_graph.Out)]
+                                                      if isinstance(v, Out)]
             assert all(v.node < 0 or v.node in built or v.node in part.nodes for v in reads)
             built.update(part.nodes)
     # no nested group reads the material's table: every material of this structure shares them
@@ -144,12 +148,12 @@ def test_table_reads_hit_texel_centres():
 
     n0, n1 = luts.SPECS["ggx_albedo"].shape
     table = luts.table("ggx_albedo")
-    img = node_graph.table_pixels("ggx_albedo.exr")
-    (s0, s1), (t0, t1) = node_graph.texel_range(n1), node_graph.texel_range(n0)
+    img = evaluate.table_pixels("ggx_albedo.exr")
+    (s0, s1), (t0, t1) = texel_range(n1), texel_range(n0)
     for i, j in [(0, 0), (3, 7), (n0 - 1, n1 - 1), (10, 0)]:
         s = s0 + j / (n1 - 1) * (s1 - s0)
         t = t0 + i / (n0 - 1) * (t1 - t0)
-        got = node_graph.bilinear(img, np.array([s]), np.array([0.5 * t]))[0, 0]
+        got = evaluate.bilinear(img, np.array([s]), np.array([0.5 * t]))[0, 0]
         assert math.isclose(got, table[i, j], rel_tol=1e-6, abs_tol=1e-7)
 
 
@@ -158,7 +162,7 @@ def test_live_values_say_which_stacks_fit_cycles_svm():
     render without OSL; four coats with a medium run out of SVM stack. The estimate separates
     them. Staged, every one of them fits, eight coats with media too."""
     from lamella_dev.bench.recompile import _stack
-    from lamella.core.backends.node_graph import fits_svm
+    from lamella.core.backends.nodes.svm import fits_svm
 
     assert all(fits_svm(emit_plan(suite.load(n), staged=False)) for n in CASES)
     assert fits_svm(emit_plan(_stack("4 coats", "four_coats"), staged=False))

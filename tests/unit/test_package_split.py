@@ -89,7 +89,7 @@ def test_a_non_editable_install_emits_osl(installed, tmp_path):
     out = _run_installed(installed, f"""
 import lamella, lamella_dev
 from lamella.core import Stack
-from lamella.core.backends.osl import emit_osl
+from lamella.core.backends.osl.emit import emit_osl
 from lamella_dev import suite
 assert lamella.__file__.startswith({str(installed)!r}), lamella.__file__
 src = emit_osl(suite.load("gold_coated"), live=("coat0_roughness",))  # a textured coat reads the tables

@@ -5,8 +5,8 @@ import math
 import pytest
 
 from lamella_dev import suite
-from lamella.core.backends.closures import trace_closures
-from lamella.core.backends.sockets import by_param, params_of, sockets
+from lamella.core.backends.ir.closures import trace_closures
+from lamella.core.backends.ir.sockets import by_param, params_of, sockets
 
 
 def _traced(case):

@@ -176,7 +176,8 @@ def test_every_model_is_finite_and_passive_at_the_schema_limits(d, dtype):
             pass
     assert ran >= 1
     if dtype == np.float32:  # the baked path: the shaders' table and closures, in float32
-        from lamella.core.backends.staging import evaluate_staged, stage
+        from lamella.core.backends.evaluate import evaluate_staged
+        from lamella.core.backends.ir.staging import stage
 
         f = evaluate_staged(stage(d), wi, wo, np.float32)
         assert np.isfinite(f).all() and (f >= 0).all()

@@ -9,7 +9,8 @@ import pytest
 
 from lamella.core import Stack, api
 from lamella_dev import suite
-from lamella.core.backends import lobe_budget, staging
+from lamella.core.backends.ir import lobe_budget, staging
+from lamella.core.backends.evaluate import evaluate_staged
 from lamella_dev.bench.staging import baked_error
 
 CASES = ["gold_coated", "rotated_60", "three_coats", "fog_g09_d1", "rough_glass_plate", "varnished_wood",
@@ -42,7 +43,7 @@ def test_a_linked_parameter_stays_live_and_reads_its_socket():
     d = stack.to_dict()
     d["layers"][0]["roughness"] = 0.3
     want = api.evaluate(Stack.from_dict(d), wi, wo)
-    got = staging.evaluate_staged(st, wi, wo, values={"coat0_alpha": np.float32(0.3)})
+    got = evaluate_staged(st, wi, wo, values={"coat0_alpha": np.float32(0.3)})
     assert np.abs(got - want).sum() / want.sum() < 0.005
     with pytest.raises(ValueError, match="not an input"):
         staging.stage(stack, live=["coat7_alpha"])
@@ -81,8 +82,8 @@ def test_an_azimuth_the_table_does_not_vary_with_is_dropped(case):
     for theta, phi in ((0.0, 0.0), (35.0, 0.7), (70.0, 2.9)):
         wi = suite.incident(theta, phi)
         wo, _ = suite.wo_grid(wi)
-        a = staging.evaluate_staged(st, wi, wo, dtype=np.float64)
-        b = staging.evaluate_staged(full, wi, wo, dtype=np.float64)
+        a = evaluate_staged(st, wi, wo, dtype=np.float64)
+        b = evaluate_staged(full, wi, wo, dtype=np.float64)
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
 
 
@@ -90,8 +91,8 @@ def test_an_azimuth_the_table_does_not_vary_with_is_dropped(case):
 def test_a_value_edit_reuses_the_trace_and_stages_as_a_fresh_trace(case):
     """Stacks of one structure share their traced graph (``closures.structure_of``): a value edit
     does not trace again, and what it stages is what a fresh trace stages."""
-    from lamella.core.backends import closures
-    from lamella.core.backends.osl import emit_osl
+    from lamella.core.backends.ir import closures
+    from lamella.core.backends.osl.emit import emit_osl
 
     d = suite.load(case).to_dict()
     edited = json.loads(json.dumps(d))
@@ -116,7 +117,7 @@ def test_a_value_edit_re_evaluates_what_it_reaches_and_stages_as_from_scratch(ca
     """Staging keeps the last evaluation of the model on the grid: an edit re-evaluates only the
     nodes the changed parameter reaches (from the second edit of that parameter on, as compiled
     code). Each table of a slider drag equals the one staged from nothing."""
-    from lamella.core.backends.closures import trace_closures
+    from lamella.core.backends.ir.closures import trace_closures
 
     d = suite.load(case).to_dict()
     r = d["layers"][0][field]
@@ -141,7 +142,7 @@ def test_a_value_edit_re_evaluates_what_it_reaches_and_stages_as_from_scratch(ca
 
 def test_the_azimuth_probe_keeps_what_varies_with_the_azimuth():
     """``_azimuth_free`` drops the azimuth only where no value depends on it."""
-    from lamella.core.backends.trace import Tracer
+    from lamella.core.backends.ir.trace import Tracer
 
     t = Tracer()
     x, y, z = (t.input(n) for n in staging.VIEW_INPUTS)
@@ -223,7 +224,7 @@ def test_live_lobes_merge_as_far_as_the_closure_cap_requires_and_follow_their_in
         wi = suite.incident(theta)
         wo, _ = suite.wo_grid(wi)
         want = api.evaluate(edited, wi, wo)
-        got = staging.evaluate_staged(st, wi, wo, np.float64, values=values)
+        got = evaluate_staged(st, wi, wo, np.float64, values=values)
         assert np.abs(got - want).sum() / np.abs(want).sum() < 0.01, theta
     few = staging.stage(suite.example("four_coats"), live=["coat0_roughness_x", "coat1_roughness", "base_eta"])
     assert few.lobes_all == len(few.closures)

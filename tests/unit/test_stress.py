@@ -30,7 +30,7 @@ def test_the_checker_catches_what_it_looks_for():
     wi = stress.directions(np.random.default_rng(0), 4)
     wo = np.abs(stress.directions(np.random.default_rng(1), 4))
     assert not stress.check_stack(s, "belcour2018", np.float32, wi, wo)
-    from lamella.core.backends import closures
+    from lamella.core.backends.ir import closures
 
     traced = closures.trace_closures(s, "belcour2018")
     original = traced.closures[0].lobe.weight

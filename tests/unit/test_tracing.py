@@ -9,8 +9,9 @@ import pytest
 import lamella.core as lc
 import lamella.core.models as models_pkg
 from lamella.core.backends.numpy_ops import NumpyOps
-from lamella.core.backends.trace import Expr, Tracer
-from lamella.core.models import eval_lobes_cos, run_model
+from lamella.core.backends.ir.trace import Expr, Tracer
+from lamella.core.lobe_kinds import eval_lobes_cos
+from lamella.core.models import run_model
 
 from .stacks import coat, gold, stack
 
@@ -190,7 +191,7 @@ def test_a_compiled_plan_evaluates_as_the_graph_walk():
     call on: equal to walking the graph, and where the values it took as known are missing it
     walks the graph for them."""
     from lamella_dev import suite
-    from lamella.core.backends.closures import trace_closures
+    from lamella.core.backends.ir.closures import trace_closures
 
     traced = trace_closures(suite.load("fog_g09_d1"))
     t = traced.tracer
@@ -221,7 +222,7 @@ def test_a_compiled_plan_evaluates_as_the_graph_walk():
 
 def test_compiled_plans_are_capped_over_every_graph(monkeypatch):
     """At most ``COMPILED_KEPT`` plans hold compiled code at once; the oldest gives its code up."""
-    from lamella.core.backends import trace
+    from lamella.core.backends.ir import trace
 
     monkeypatch.setattr(trace, "COMPILED_KEPT", 2)
     monkeypatch.setattr(trace, "_COMPILED", [])

@@ -365,7 +365,7 @@ def wire(tree, inputs: list[FaceInput], script, group, live=frozenset()) -> None
     gout.inputs[THICKNESS].default_value = 0.0
     shaders = [n.outputs["BSDF"] for n in (group, script) if n is not None and "BSDF" in n.outputs]
     if script is not None and group is not None:
-        from ..core.backends.osl import ENGINE_SWITCH
+        from ..core.backends.osl.emit import ENGINE_SWITCH
 
         mix = nt.nodes.new("ShaderNodeMixShader")
         mix.name = mix.label = SWITCH

@@ -371,9 +371,10 @@ def install_group(mat, node, stack, model: str, shader, build: bool = True) -> b
     Returns whether the group was rebuilt, None when it was left out of date."""
     import bpy
 
-    from ..core.backends.live_axes import socket_ranges
-    from ..core.backends.node_graph import emit_plan, live_values
-    from ..core.backends.sockets import sockets
+    from ..core.backends.ir.live_axes import socket_ranges
+    from ..core.backends.nodes.lower import emit_plan
+    from ..core.backends.nodes.svm import live_values
+    from ..core.backends.ir.sockets import sockets
     from . import node_group
     from .osl_compile import set_socket
 

@@ -23,8 +23,9 @@ from collections import defaultdict
 import bpy
 
 from ..core import luts
-from ..core.backends.node_graph import Out, Plan, input_name, partition, value_type
-from ..core.backends.sockets import by_param, sockets
+from ..core.backends.nodes.plan import Out, Plan, input_name, value_type
+from ..core.backends.nodes.partition import partition
+from ..core.backends.ir.sockets import by_param, sockets
 from .osl_compile import set_socket
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists

@@ -433,7 +433,7 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
     def run(self, context, mat):
         from pathlib import Path
 
-        from ..core.backends.osl_bundle import write_bundle
+        from ..core.backends.osl.bundle import write_bundle
         from . import api
 
         from .material_nodes import linked_sockets

@@ -229,7 +229,7 @@ def build_shader(stack, model: str, live=(), budget="auto", partition=None):
     (OslShader, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError
     (an unknown model) or OSLCompileError."""
     from ..core import luts
-    from ..core.backends.osl import osl_shader
+    from ..core.backends.osl.emit import osl_shader
     from .osl_compile import compile_source
 
     shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition,

@@ -21,7 +21,7 @@ import textwrap
 
 import bpy
 
-from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
+from ..core.backends.nodes.svm import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
 from .material_nodes import inner_nodes, osl_usable
 from .operators import context_material
@@ -255,7 +255,7 @@ def draw_model(layout, mat) -> None:
     if s.lobes_all:
         col.label(text=iface_("{closures} closures for {lobes} lobes").format(closures=s.closures, lobes=s.lobes_all),
                   icon="SHADING_RENDERED", translate=False)
-        from ..core.backends.lobe_budget import MAX_CLOSURES
+        from ..core.backends.ir.lobe_budget import MAX_CLOSURES
 
         if s.closures > MAX_CLOSURES:  # only lobes that cannot merge (of different kinds) pass the cap
             _wrapped(col, iface_("Cycles with OSL draws about {n} closures per point and drops the rest: unlink an "

@@ -150,7 +150,7 @@ SPECS = {
 
 # 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:
 # a quadrature that reads every slice at the same (c0, c1) then needs a quarter of the texture
-# reads (lamella.core.backends.osl). Same float32 values as the one-channel atlas.
+# reads (lamella.core.backends.osl.emit). Same float32 values as the one-channel atlas.
 PACKED = {"fresnel_hat_delta": "fresnel_hat_delta_rgba.exr"}
 PACKED_CHANNELS = ("R", "G", "B", "A")
 

@@ -20,8 +20,9 @@ import numpy as np
 
 from lamella.core import Stack, api
 from .. import suite
-from lamella.core.backends import staging
-from lamella.core.backends.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
+from lamella.core.backends.ir import staging
+from lamella.core.backends.evaluate import evaluate_staged
+from lamella.core.backends.ir.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
 from lamella.core.param_id import AXES, COLOUR_CHANNELS
 from . import BENCH_DIR
 
@@ -59,7 +60,8 @@ def _draw(rng, live, ids) -> dict:
 
 def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list[dict]:
     """One row per stack class of ``recompile.STACKS`` (those named in ``labels``, default all)."""
-    from lamella.core.backends.node_graph import emit_plan, live_values
+    from lamella.core.backends.nodes.lower import emit_plan
+    from lamella.core.backends.nodes.svm import live_values
     from .node_cost import textured_sockets
     from .recompile import STACKS, _stack
 
@@ -84,7 +86,7 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
                 wo, _ = suite.wo_grid(wi)
                 want = api.evaluate(model, wi, wo)
                 for k, st in (("tables", tab), ("traced", traced)):
-                    got = staging.evaluate_staged(st, wi, wo, np.float32, values=values).astype(float)
+                    got = evaluate_staged(st, wi, wo, np.float32, values=values).astype(float)
                     worst[k] = max(worst[k], float(np.abs(got - want).sum() / np.abs(want).sum()))
             for k in errors:
                 errors[k].append(worst[k])

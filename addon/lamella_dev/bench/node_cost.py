@@ -43,7 +43,8 @@ def measure() -> list[dict]:
     os.environ["MESA_SHADER_CACHE_DISABLE"] = "true"
     import bpy
 
-    from lamella.core.backends.node_graph import emit_plan, partition
+    from lamella.core.backends.nodes.lower import emit_plan
+    from lamella.core.backends.nodes.partition import partition
     from lamella.blender.node_group import build_group
 
     rows = []
@@ -74,8 +75,8 @@ def measure() -> list[dict]:
 def textured_sockets(stack) -> list[str]:
     """Textures on two coat roughnesses (the first two coats) and the base colour: the sockets a
     material with such links reads live."""
-    from lamella.core.backends.closures import trace_closures
-    from lamella.core.backends.sockets import sockets
+    from lamella.core.backends.ir.closures import trace_closures
+    from lamella.core.backends.ir.sockets import sockets
 
     shown = sockets(trace_closures(stack).tracer.ids)
     out = [next(sk.name for sk in shown if sk.layer == i and sk.field == "roughness")
@@ -90,7 +91,8 @@ def linked_rows() -> list[dict]:
     the mean radiance of the group in Cycles without OSL against the OSL shader (same links)."""
     import numpy as np
 
-    from lamella.core.backends.node_graph import emit_plan, live_values
+    from lamella.core.backends.nodes.lower import emit_plan
+    from lamella.core.backends.nodes.svm import live_values
     from ..render import assign_material, build_scene
 
     rows = []

@@ -54,7 +54,7 @@ def feature_ladder() -> list[tuple[str, Stack, str]]:
 
 
 def static_cost(stack: Stack, model: str = "auto") -> dict:
-    from lamella.core.backends.osl import emit_osl
+    from lamella.core.backends.osl.emit import emit_osl
 
     src = emit_osl(stack, model, staged=False)
     body = src[src.index("\nshader "):]

@@ -168,7 +168,7 @@ COST_REFERENCE = {"cycles-osl": "principled", "cycles-nodes": "principled-svm", 
 def cost_sweep(stacks: list[tuple[float, Stack]], s: Settings, bar=None) -> list[dict]:
     """Render-time ratio to the Principled stand-in (in the same shading system) of each staged
     variant on each stack, with the closures it kept."""
-    from lamella.core.backends.staging import stage
+    from lamella.core.backends.ir.staging import stage
 
     rows = []
     for x, stack in stacks:

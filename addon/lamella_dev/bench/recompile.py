@@ -57,7 +57,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
     import bpy
 
     from lamella.blender import api, recompile, register
-    from lamella.core.backends import closures, staging
+    from lamella.core.backends.ir import closures, staging
     from lamella.blender import osl_compile
 
     register()
@@ -98,7 +98,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
                 if not full:
                     bpy.ops.lamella.layer_remove(material=mat.name)
                     recompile.flush_groups()
-        from lamella.core.backends.osl import emit_osl
+        from lamella.core.backends.osl.emit import emit_osl
 
         closures._TRACES.clear()  # from scratch: nothing traced or evaluated before
         staging._EVALUATED.clear()

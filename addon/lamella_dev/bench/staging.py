@@ -25,7 +25,8 @@ import numpy as np
 
 from lamella.core import api
 from .. import suite
-from lamella.core.backends import lobe_budget, staging
+from lamella.core.backends.ir import lobe_budget, staging
+from lamella.core.backends.evaluate import evaluate_staged
 from . import BENCH_DIR
 
 ANGLES = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 75.0, 80.0, 85.0)
@@ -57,7 +58,7 @@ def baked_error(stack, st) -> tuple[float, tuple]:
             wo, w = suite.wo_grid(wi)
             sides = [wo] + ([wo * np.array([1.0, 1.0, -1.0])] if stack.base.kind.transmits else [])
             for wo_s in sides:
-                e = relative_l1(api.evaluate(stack, wi, wo_s), staging.evaluate_staged(st, wi, wo_s).astype(float), w)
+                e = relative_l1(api.evaluate(stack, wi, wo_s), evaluate_staged(st, wi, wo_s).astype(float), w)
                 if e > worst:
                     worst, where = e, (th, phi)
     return worst, where
@@ -103,7 +104,7 @@ def budget_rows(progress=print) -> list[dict]:
 
 def _samples(stack, dirs):
     """Every lobe of the model on the grid views ``dirs``."""
-    from lamella.core.backends.closures import trace_closures
+    from lamella.core.backends.ir.closures import trace_closures
 
     traced = trace_closures(stack)
     on_grid = staging.grid_values(traced.tracer, dirs, ())
@@ -145,7 +146,7 @@ def _timed_render(stack, engine, budget="auto", staged=True, osl=None):
 def cost_rows(repeats: int = REPEATS, progress=print, variants=COST_VARIANTS) -> list[dict]:
     import bpy  # noqa: F401
 
-    from lamella.core.backends.node_graph import emit_plan
+    from lamella.core.backends.nodes.lower import emit_plan
     from .recompile import _stack
 
     cases = [("1 coat (gold_coated)", suite.load("gold_coated")), ("8 coats + media", _stack("8 coats + media", None))]

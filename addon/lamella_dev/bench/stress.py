@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from lamella.core import api as core_api
-from lamella.core.backends.closures import declared_params, structure_of, trace_closures
+from lamella.core.backends.ir.closures import declared_params, structure_of, trace_closures
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.layers import BASE_KINDS
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
@@ -212,7 +212,8 @@ def check_stack(stack, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> boo
 def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
     """Whether the baked path of ``stack`` (auto model, automatic lobe budget) fails: the staged
     shader's f cos at (wi, wo), float32, not finite or negative, or staging raises."""
-    from lamella.core.backends.staging import evaluate_staged, stage
+    from lamella.core.backends.evaluate import evaluate_staged
+    from lamella.core.backends.ir.staging import stage
 
     try:
         f = evaluate_staged(stage(stack), wi, wo, np.float32)

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from lamella.core.backends import traced_ops
+from lamella.core.backends.ir import traced_ops
 
 
 def _numpy(ops, x):
@@ -27,4 +27,4 @@ def register():
 
 
 def unregister():
-    traced_ops.unregister(OP.name)
+    traced_ops.unregister(OP)

@@ -1,7 +1,8 @@
 """A model that emits the extension's lobe kind (``translucent``): yamaguchi2019, with half of
 the light a Lambertian base sends up leaving through the surface instead (a thin diffuser)."""
+from lamella.core import models
 from lamella.core.models import MODELS
-from lamella.core.models.adding_doubling import Lobe
+from lamella.core.models.types import Lobe
 
 NAME = "split_diffuse"
 
@@ -20,11 +21,12 @@ class SplitDiffuse:
         return out
 
 
+MODEL = SplitDiffuse()
+
+
 def register():
-    if NAME in MODELS:
-        raise ValueError(f"a model named {NAME!r} is registered already")
-    MODELS[NAME] = SplitDiffuse()
+    models.register(MODEL)
 
 
 def unregister():
-    MODELS.pop(NAME, None)
+    models.unregister(MODEL)

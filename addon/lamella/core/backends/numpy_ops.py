@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from .. import luts as _luts
-from .traced_ops import OPS
+from .ir.traced_ops import Ops, TracedOp
 
 
-class NumpyOps:
+class NumpyOps(Ops):
     """Operations over numpy arrays of one dtype.
 
     ``dtype`` is ``np.float64`` (default) or ``np.float32``; every constant and input is cast so
@@ -43,7 +43,11 @@ class NumpyOps:
         return np.asarray(value, dtype=self.dtype)
 
     # ------------------------------------------------------------------ math
-    # sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function: ``traced_ops``
+    def apply(self, op: TracedOp, *xs):
+        """sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function
+        (``ir.traced_ops``), in this backend's precision."""
+        return op.numpy(self, *xs)
+
     def clamp(self, x, lo, hi):
         return np.minimum(np.maximum(x, lo), hi)
 
@@ -90,12 +94,3 @@ def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
         offsets = np.concatenate([offsets, offsets + stride])
     corners = table.reshape(-1).take(base[None] + offsets.reshape((-1,) + (1,) * len(shape)))
     return (w * corners).sum(0, dtype=dtype)
-
-
-def install(op) -> None:
-    """``ops.<name>`` of a traced operation (``traced_ops``) on the numpy backend."""
-    setattr(NumpyOps, op.name, lambda self, *xs: op.numpy(self, *xs))
-
-
-for _op in OPS.values():
-    install(_op)

@@ -9,31 +9,31 @@ Blender properties are registered).
 """
 from __future__ import annotations
 
+from ..registry import Registry
 from . import coat, conductor, dielectric, diffuse
 from .params import BaseResponse
 from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, LayerKind, StackError
 
-COAT_KINDS: dict[str, LayerKind] = {}
-BASE_KINDS: dict[str, LayerKind] = {}
+COAT_KINDS: Registry[LayerKind] = Registry("coat kind", key=lambda kind: kind.type)
+BASE_KINDS: Registry[LayerKind] = Registry("base kind", key=lambda kind: kind.type, shares_names_with=(COAT_KINDS,))
 
 
-def _registry(kind: LayerKind) -> dict[str, LayerKind]:
+def _registry(kind: LayerKind) -> Registry[LayerKind]:
+    if not isinstance(kind, LayerKind):
+        raise TypeError(f"a layer kind is declared with schema.layer_kind, got {type(kind).__name__}")
     return COAT_KINDS if kind.role == "coat" else BASE_KINDS
 
 
 def register(kind: LayerKind) -> LayerKind:
     """Add ``kind`` to the registry of its role (the parser, the schema page, the Blender
-    properties and every backend then know it). Its ``type`` must be new to both roles."""
-    if kind.type in COAT_KINDS or kind.type in BASE_KINDS:
-        raise ValueError(f"a layer kind named {kind.type!r} is registered already")
-    _registry(kind)[kind.type] = kind
-    return kind
+    properties and every backend then know it). Its ``type`` must be new to both roles; what its
+    role needs is checked where it is declared (``schema.layer_kind``)."""
+    return _registry(kind).register(kind)
 
 
 def unregister(kind: LayerKind) -> None:
     """Remove ``kind`` (a registered extension kind) from the registry."""
-    if _registry(kind).get(kind.type) is kind:
-        del _registry(kind)[kind.type]
+    _registry(kind).unregister(kind)
 
 
 for _kind in (coat.KIND, conductor.KIND, diffuse.KIND, dielectric.KIND):

@@ -1,27 +1,45 @@
 """The layered models, written once over the abstract ops (no numpy import anywhere in here).
 
-``MODELS`` is the registry of model families by public name; each entry has ``name`` and
-``run(ops, stack, wi) -> list[Lobe]`` and traces/evaluates on any backend. ``auto`` resolves to a
+``MODELS`` is the registry of model families by public name (``lamella.core.registry``); each
+entry has ``name`` and ``run(ops, stack, wi) -> list[Lobe]`` (``types.Lobe``) and traces and
+evaluates on any backend. A new model is one module whose object joins with :func:`register`. ``auto`` resolves to a
 registered model by the stack's structure alone (``choose_auto``). Lobes are evaluated through
 the lobe-kind table (``lamella.core.lobe_kinds``).
 """
 from __future__ import annotations
 
-from .adding_doubling import Lobe, UnsupportedStack, Variant
+from ..registry import Registry, require_callables
+from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, Variant
 from .endf import ENDF
 from .rgb import RGB
-from .transfer_matrix import TransferMatrix
 from .roughness import MAPPINGS
-from .variance import AxisVariance, CovarianceVariance, ScalarVariance
+from .transfer_matrix import TransferMatrix
+from .types import Lobe, UnsupportedStack
 
-MODELS: dict = {
-    "belcour2018": Variant("belcour2018", ScalarVariance, MAPPINGS["belcour"]),
-    "weier2020": Variant("weier2020", AxisVariance, MAPPINGS["weier"]),
-    "yamaguchi2019": Variant("yamaguchi2019", CovarianceVariance, MAPPINGS["belcour"]),
-    "tm2": TransferMatrix("tm2", six_flux=False),
-    "tm6": TransferMatrix("tm6", six_flux=True),
-    "endf": ENDF(),
-}
+
+def _complete(model) -> None:
+    require_callables("model", model, "run")
+    if getattr(model, "name", None) == "auto":
+        raise ValueError("'auto' is the model chosen by a stack's structure, not a model name")
+
+
+MODELS: Registry = Registry("model", _complete)
+
+
+def register(model):
+    """Add a model (an object with ``name`` and ``run(ops, stack, wi) -> list[Lobe]``): the API,
+    the shaders, the Blender model menu and the benches then offer it."""
+    return MODELS.register(model)
+
+
+def unregister(model_or_name) -> None:
+    """Remove a model registered by :func:`register`."""
+    MODELS.unregister(model_or_name)
+
+
+for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, TransferMatrix("tm2", six_flux=False),
+               TransferMatrix("tm6", six_flux=True), ENDF()):
+    register(_model)
 VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
 
 
@@ -84,7 +102,5 @@ def run_model(ops, stack, wi, model) -> list[Lobe]:
     return resolve(model, stack).run(ops, stack, wi)
 
 
-from ..lobe_kinds import eval_lobes_cos  # noqa: E402  (the lobe table imports models.fgd)
-
-__all__ = ["Lobe", "UnsupportedStack", "Variant", "MODELS", "VARIANTS", "choose_auto", "get", "resolve",
-           "variant", "run_model", "eval_lobes_cos", "RGB"]
+__all__ = ["Lobe", "UnsupportedStack", "Variant", "MODELS", "VARIANTS", "register", "unregister", "choose_auto",
+           "get", "resolve", "variant", "run_model", "RGB"]

@@ -53,28 +53,10 @@ from dataclasses import dataclass
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction, trapped_escape
 from .hg import belcour_variance_of_g
-from ..param_id import slots
 from .rgb import RGB
-
-COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
-
-
-class UnsupportedStack(ValueError):
-    """The model cannot represent this stack; the message says why."""
-
-
-@dataclass
-class Lobe:
-    """A lobe of a model, in backend values: energy (RGB), roughness along its own axes, the
-    angle of those axes from the shading tangent, its kind (a name of ``lamella.core.lobe_kinds``)
-    and, for a transmission lobe, the index of the medium it enters relative to vacuum above."""
-
-    weight: RGB
-    alpha_x: object
-    alpha_y: object
-    rotation: object
-    kind: str = "reflection"
-    eta: object = 1.0
+from .roughness import MAPPINGS
+from .types import COS_FLOOR, Lobe, layer_params
+from .variance import AxisVariance, CovarianceVariance, ScalarVariance
 
 
 @dataclass(frozen=True)
@@ -90,12 +72,10 @@ class Variant:
         return adding_doubling(ops, stack, wi, self)
 
 
-def layer_params(ops, stack):
-    """Every per-layer parameter as a backend value (a shader input when traced), by the layer
-    kinds' own ``params``."""
-    coat_slots, base_slot = slots(stack)
-    coats = [c.kind.params(ops, slot, c) for slot, c in zip(coat_slots, stack.coats)]
-    return coats, stack.base.kind.params(ops, base_slot, stack.base)
+# The published variants (the model registry holds them by these names)
+BELCOUR2018 = Variant("belcour2018", ScalarVariance, MAPPINGS["belcour"])
+WEIER2020 = Variant("weier2020", AxisVariance, MAPPINGS["weier"])
+YAMAGUCHI2019 = Variant("yamaguchi2019", CovarianceVariance, MAPPINGS["belcour"])
 
 
 @dataclass(frozen=True)

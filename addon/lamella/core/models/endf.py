@@ -44,7 +44,9 @@ model refuses anisotropic interfaces.
 """
 from __future__ import annotations
 
-from .adding_doubling import Lobe, UnsupportedStack, layer_params
+from ..lobe_kinds.transmission import transmission_alpha_of_spread
+from .adding_doubling import BELCOUR2018
+from .types import Lobe, UnsupportedStack, layer_params
 
 A3_SERIES_KAPPA = 0.5  # below this concentration A3 is evaluated by its series
 V_MAX = 1e4  # largest 1 / kappa carried (a uniform distribution is 1 / kappa -> infinity)
@@ -138,11 +140,8 @@ def check_supported(stack) -> None:
 
 
 def endf(ops, stack, wi) -> list[Lobe]:
-    from . import MODELS
-    from ..lobe_kinds import transmission_alpha_of_spread
-
     check_supported(stack)
-    lobes = MODELS["belcour2018"].run(ops, stack, wi)  # energies: the adding equations
+    lobes = BELCOUR2018.run(ops, stack, wi)  # energies: the adding equations
     (coat,), base = layer_params(ops, stack)
     ops.set_scope("endf")
     mu = ops.clamp(wi[2], 1e-4, 1.0)

@@ -11,6 +11,7 @@ from .. import luts
 from .fresnel import fresnel_conductor, fresnel_dielectric
 from .rgb import RGB
 
+
 def _coords(ops, mu, alpha):
     return luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, alpha)
 

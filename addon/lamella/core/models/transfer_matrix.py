@@ -59,11 +59,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from . import hg
-from .adding_doubling import COS_FLOOR, Lobe, UnsupportedStack, layer_params
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction
 from .homogeneous_medium import slab
 from .rgb import RGB
+from .types import COS_FLOOR, Lobe, UnsupportedStack, layer_params
 from .variance import rms_alpha
 
 P, F, B = 0, 1, 2

@@ -13,24 +13,27 @@ tables in ``lut_dir``.
 The view direction is the one line that depends on the renderer (``view``, one of VIEW_TARGETS):
 Cycles' ``I`` points from the surface toward the viewer, whereas the OSL specification (Gritz et
 al., OSL Language Specification) defines ``I`` as the incident ray direction, pointing toward the
-surface; "osl-spec" negates it. ``lamella.core.backends.osl_bundle`` writes the shader together
+surface; "osl-spec" negates it. ``lamella.core.backends.osl.bundle`` writes the shader together
 with its tables and a README for use outside Blender.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .. import luts
-from .closures import trace_closures
-from .osl_closures import CLOSURES
-from .sockets import by_param, sockets
-from .trace import Expr, Tracer
-from .traced_ops import OPS
+import numpy as np
 
-OSL_DIR = Path(__file__).resolve().parents[2] / "data" / "osl"  # inside the package: every install emits OSL
+from ... import luts
+from ..ir.closures import trace_closures
+from ..ir.sockets import by_param, sockets
+from ..ir.staging import stage
+from ..ir.trace import Expr, Tracer
+from ..ir.traced_ops import OPS
+
+OSL_DIR = Path(__file__).resolve().parents[3] / "data" / "osl"  # inside the package: every install emits OSL
 LUT_HEADER = "lamella_luts.h"
 ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure
 
@@ -64,8 +67,6 @@ def _identifier(name: str) -> str:
     out = "".join(ch if ch.isascii() and ch.isalnum() else "_" for ch in name)
     out = out if out[:1].isalpha() else "s_" + out
     if not name.isascii() or len(out) > IDENTIFIER_MAX:
-        import hashlib
-
         digest = hashlib.sha1(name.encode("utf-8", "surrogatepass")).hexdigest()[:8]
         out = out[: IDENTIFIER_MAX - 9].rstrip("_") + "_" + digest
     return out
@@ -306,7 +307,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
 
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
-    (``lamella.core.backends.staging``): the view-only part is a constant table inside the shader,
+    (``lamella.core.backends.ir.staging``): the view-only part is a constant table inside the shader,
     lobes merged to ``budget``; every parameter of the model is still a shader parameter (a socket
     to link a texture into), read only where live. ``staged=False``: the whole model traced, every
     parameter read (the shader before staging, kept for comparison).
@@ -329,8 +330,6 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     traced = trace_closures(stack, model)
     all_params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
     if staged:
-        from .staging import stage
-
         st = stage(traced.stack, model, live, budget, traced=traced, partition=partition)
         t, closures, frame, table = st.tracer, st.closures, st.frame, st.table
     else:
@@ -404,7 +403,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     called = []
     for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
-        closure = CLOSURES[c.kind.name]({name: p.ref(x) for name, x in c.args.items()})
+        closure = c.kind.osl({name: p.ref(x) for name, x in c.args.items()})
         called.append(ShaderClosure(c.label, c.kind.name, closure.split("(", 1)[0].strip()))
         body += [
             f"    // {c.label}",
@@ -450,14 +449,10 @@ def _float32_literals(values) -> list[str]:
     """The shortest literals that read back as the float32 ``values`` (an array of finite
     numbers), in order: numpy's own float32 repr, vectorised (a value edit prints the material
     table again; one call per value cost several milliseconds)."""
-    import numpy as np
-
     return np.asarray(values, dtype=np.float32).reshape(-1).astype(str).tolist()
 
 
 def _float32_literal(x) -> str:
     """The shortest literal that reads back as the float32 ``x``."""
-    import numpy as np
-
     r = np.format_float_positional(np.float32(x), unique=True, trim="0")
     return r if not r.endswith(".") else r + "0"

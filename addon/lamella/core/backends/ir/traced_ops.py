@@ -5,9 +5,10 @@ Besides Python arithmetic and comparisons (which the tracer records as ``add`` .
 ops ``select``, ``clamp`` and ``lut``, model code calls ``ops.<name>(...)`` for the functions
 below. A :class:`TracedOp` says, for one function: its numpy form (in the ops' precision), its
 value on plain numbers (the tracer folds constant arithmetic), the OSL expression that prints it,
-and the Blender Math nodes that build it. :func:`register` installs it on the numpy backend and
-the tracer; the OSL printer and the node-graph lowering read this table. A new function is one
-module that calls :func:`register`, and a test holds every backend to the numpy form.
+and the Blender Math nodes that build it. Every backend's ops class derives from :class:`Ops`,
+which resolves ``ops.<name>`` through this table to the backend's ``apply``; the OSL printer and
+the node-graph lowering read the table too. A new function is one module that calls
+:func:`register`, and a test holds every backend to the numpy form.
 """
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+
+from ...registry import Registry, require_callables
 
 
 @dataclass(frozen=True)
@@ -41,29 +44,57 @@ class TracedOp:
         return f"{self.osl}({', '.join(args)})"
 
 
-OPS: dict[str, TracedOp] = {}
+def _subclasses(cls) -> list[type]:
+    out = []
+    for sub in cls.__subclasses__():
+        out += [sub, *_subclasses(sub)]
+    return out
+
+
+def _complete(op: TracedOp) -> None:
+    if not isinstance(op, TracedOp):
+        raise TypeError(f"a traced operation is a TracedOp, got {type(op).__name__}")
+    if not op.name.isidentifier() or op.name.startswith("_"):
+        raise ValueError(f"traced operation {op.name!r}: the name is what model code calls, ops.<name>")
+    taken = [cls.__name__ for cls in (Ops, *_subclasses(Ops)) if op.name in vars(cls)]
+    if taken:
+        raise ValueError(f"traced operation {op.name!r}: {', '.join(taken)} has a method of that name already")
+    if not isinstance(op.arity, int) or op.arity < 1:
+        raise ValueError(f"traced operation {op.name!r}: arity is a whole number from 1, got {op.arity!r}")
+    if not isinstance(op.osl, str) or not op.osl:
+        raise ValueError(f"traced operation {op.name!r}: osl is a function name or a format string")
+    require_callables("traced operation", op, "numpy", "fold", "nodes")
+
+
+OPS: Registry[TracedOp] = Registry("traced operation", _complete)
+
+
+class Ops:
+    """What every backend's ops object is (the numpy backend, the tracer): besides its own
+    methods (``const``, ``param``, ``input``, ``select``, ``clamp``, ``lut``, ``set_scope``),
+    ``ops.<name>`` of a registered traced operation calls ``self.apply(op, *xs)``."""
+
+    name = "ops"
+
+    def apply(self, op: TracedOp, *xs):
+        raise NotImplementedError
+
+    def __getattr__(self, name: str):
+        op = OPS.get(name)
+        if op is None:
+            raise AttributeError(f"{type(self).__name__} has no operation {name!r} (traced operations: "
+                                 f"{', '.join(OPS)})")
+        return lambda *xs: self.apply(op, *xs)
 
 
 def register(op: TracedOp) -> TracedOp:
-    """Add ``op`` to the table and to the numpy backend and the tracer as ``ops.<name>``."""
-    from . import numpy_ops, trace
-
-    if op.name in OPS or hasattr(numpy_ops.NumpyOps, op.name) or hasattr(trace.Tracer, op.name):
-        raise ValueError(f"a traced operation or ops method named {op.name!r} exists already")
-    OPS[op.name] = op
-    numpy_ops.install(op)
-    trace.install(op)
-    return op
+    """Add ``op``: every backend then has it as ``ops.<name>``."""
+    return OPS.register(op)
 
 
-def unregister(name: str) -> None:
-    """Remove a registered operation (an extension's) from the table and both backends."""
-    from . import numpy_ops, trace
-
-    if OPS.pop(name, None) is not None:
-        delattr(numpy_ops.NumpyOps, name)
-        delattr(trace.Tracer, name)
-        trace._FOLD.pop(name, None)
+def unregister(op_or_name) -> None:
+    """Remove a registered operation (an extension's)."""
+    OPS.unregister(op_or_name)
 
 
 def _math_node(operation: str) -> Callable:
@@ -98,6 +129,6 @@ for _op in (
     TracedOp("atan2", 2, lambda ops, y, x: np.arctan2(y, x), math.atan2, "atan2", _math_node("ARCTAN2"),
              "angle of (x, y)"),
 ):
-    OPS[_op.name] = _op
+    register(_op)
 
-__all__ = ["TracedOp", "OPS", "register", "unregister"]
+__all__ = ["TracedOp", "Ops", "OPS", "register", "unregister"]

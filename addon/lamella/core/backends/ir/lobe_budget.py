@@ -26,8 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import lobe_kinds
-from .numpy_ops import NumpyOps
+from ... import lobe_kinds
+from ...hemisphere import wo_grid
+from ..numpy_ops import NumpyOps
 
 BUDGETS = ("auto", "all", 1, 2, 3, 4, 5, 6, 7, 8)
 AUTO_TOLERANCE = 0.01  # relative L1 of the merged BRDF against every lobe, at each view
@@ -267,8 +268,6 @@ class CheckViews:
     grid's views (N, 3)."""
 
     def __init__(self, dirs, rows, wi):
-        from ..hemisphere import wo_grid
-
         self.dirs = dirs
         self.rows = np.asarray(rows, dtype=np.int64)
         self.wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)

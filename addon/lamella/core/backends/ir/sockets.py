@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
-from ..param_id import COLOUR_CHANNELS, ParamId, r_from_alpha, socket_name
+from ...param_id import COLOUR_CHANNELS, ParamId, r_from_alpha, socket_name
 
 
 @dataclass(frozen=True)

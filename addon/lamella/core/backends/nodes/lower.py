@@ -1,4 +1,4 @@
-"""Node-graph backend: the traced model lowered to Blender shader nodes (docs/design.md "One model,
+"""The node-graph backend: the traced model lowered to Blender shader nodes (docs/design.md "One model,
 three backends"), for EEVEE and for Cycles without OSL (SVM, GPU).
 
 The model is traced once with ``Tracer`` exactly as for OSL; this module lowers the traced graph
@@ -25,100 +25,31 @@ node group, named by a hash of its content so that an edit rebuilds only the chu
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import luts
-from .bsdf_nodes import BSDF_NODES
-from .closures import trace_closures
-from .trace import Expr, Tracer
-from .traced_ops import OPS
+from ... import luts
+from ..ir.closures import trace_closures
+from ..ir.live_axes import MAX_AXES
+from ..ir.staging import stage
+from ..ir.trace import Expr, Tracer
+from ..ir.traced_ops import OPS
+from .plan import (
+    MATH_IN,
+    TABLE_IMAGE,
+    TABLE_SIZE,
+    Bsdf,
+    Out,
+    Plan,
+    PlanNode,
+    texel_range,
+)
+from .svm import SVM_UNSURE, live_values
 
 ENERGY_EPS = 1e-6
-CHUNK_NODES = 120  # nodes per nested group: creation time grows with the square of a tree's size
-SECTION_CHUNKS = 16  # chunks per section group: links too cost time in proportion to their tree
-
 _MATH = {"add": "ADD", "sub": "SUBTRACT", "mul": "MULTIPLY", "div": "DIVIDE", "lt": "LESS_THAN",
          "gt": "GREATER_THAN"}  # arithmetic; the functions build their own nodes (``traced_ops``)
-MATH_IN = ("Value", "Value_001", "Value_002")  # socket identifiers of a Math node's inputs
-
-
-@dataclass(frozen=True)
-class Out:
-    """An output socket of a plan node (``node`` is the node's index in ``Plan.nodes``; a negative
-    index -1 - k is the k-th leaf, a group input named ``Plan.leaves[k]``)."""
-
-    node: int
-    socket: str
-
-
-@dataclass
-class PlanNode:
-    """One Blender node: its type, its properties, and its inputs by socket identifier (an
-    ``Out`` or a literal float)."""
-
-    bl_idname: str
-    props: dict
-    inputs: dict
-    scope: str
-    outputs: tuple = ("Value",)
-
-    def key(self):
-        return (self.bl_idname, tuple(sorted(self.props.items())),
-                tuple(sorted((k, v if isinstance(v, Out) else float(v)) for k, v in self.inputs.items())))
-
-
-@dataclass
-class Bsdf:
-    """A lobe's BSDF node: type and properties from the lobe kind, ``Color`` as three scalar
-    outputs, other float sockets as values, vector sockets as local-frame (x = tangent, y =
-    bitangent, z = normal) triples; ``None`` leaves a vector socket unlinked."""
-
-    kind: str
-    bl_idname: str
-    props: dict
-    color: tuple
-    floats: dict
-    vectors: dict
-    label: str
-
-
-@dataclass
-class Plan:
-    """The node plan of one stack: math nodes in topological order, the leaves (the view direction
-    ``wi_x``/``wi_y``/``wi_z`` in the local frame and the stack's parameters, whose defaults are in
-    ``params``), the BSDF nodes, and the section title of every scope."""
-
-    nodes: list
-    leaves: list
-    params: dict
-    bsdfs: list
-    sections: dict
-    model: str
-    stack_json: str = ""
-    traced: tuple = field(default=(), repr=False)  # (tracer, expressions): what each output lowers
-    frame: str = "shading"  # "view": the local x axis is the view's azimuth (staging)
-    images: dict = field(default_factory=dict)  # material tables: image name -> pixels (rows bottom first)
-    staged: object = field(default=None, repr=False)
-    ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
-
-    def leaf(self, name: str) -> Out:
-        return Out(-1 - self.leaves.index(name), "Value")
-
-    @property
-    def outputs(self) -> list:
-        """Every value the BSDF nodes read."""
-        outs = []
-        for b in self.bsdfs:
-            outs += [*b.color, *b.floats.values()]
-            for v in b.vectors.values():
-                if v is not None:
-                    outs += list(v)
-        return [o for o in outs if isinstance(o, Out)]
 
 
 def _rgb_block(values: np.ndarray) -> np.ndarray:
@@ -129,14 +60,6 @@ def _rgb_block(values: np.ndarray) -> np.ndarray:
     padded = np.zeros((rows, cells, groups * 3), dtype=np.float32)
     padded[..., :cols] = values
     return padded.reshape(rows, cells * groups, 3)
-
-
-def texel_range(n: int, offset: float = 0.0, rows: int | None = None) -> tuple[float, float]:
-    """The texture coordinates of table coordinates 0 and 1 on an axis of n nodes: the texel
-    centres of rows ``offset`` and ``offset + n - 1`` of an image ``rows`` high (a coordinate in
-    between maps linearly, as ``lamella_tex`` in ``lamella/data/osl/lamella_luts.h``)."""
-    rows = rows or n
-    return (offset + 0.5) / rows, (offset + n - 0.5) / rows
 
 
 class _Lowering:
@@ -434,10 +357,6 @@ _FOLD_MATH = {
 }
 
 
-TABLE_IMAGE = ".lamella_table"
-TABLE_SIZE = 8192  # texels: the material table image's widest and tallest (GPUs take 16384; older ones 8192)
-
-
 def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
               image: str = TABLE_IMAGE, grid=None, staged_ir=None, live_axes="auto") -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
@@ -451,9 +370,6 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
     parameters) (``staging.stage``'s ``live_axes``); "auto": none, unless the traced part is more
     than Cycles' SVM surely holds (``live_values`` above ``SVM_UNSURE``), then up to
     ``live_axes.MAX_AXES`` parameters per table."""
-    from .live_axes import MAX_AXES
-    from .staging import stage
-
     if staged and staged_ir is not None and live_axes in ("auto", staged_ir.live_axes):
         st = staged_ir
     elif staged:
@@ -488,7 +404,7 @@ def _plan(stack, model: str, st, image: str) -> Plan:
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         ids = dict(traced.tracer.ids)
         t, closures, wi, frame, table = traced.tracer, traced.closures, traced.wi, "shading", None
-    specs = [(c, c.weight, BSDF_NODES[c.kind.name](t, c.args, wi)) for c in closures]
+    specs = [(c, c.weight, c.kind.node(t, c.args, wi)) for c in closures]
     exprs = []
     for _, color, b in specs:
         exprs += [*color, *b.floats.values()]
@@ -508,306 +424,3 @@ def _plan(stack, model: str, st, image: str) -> Plan:
     images = {image: low.material_pixels()} if any(n.props.get("image") == image for n in low.nodes) else {}
     return Plan(low.nodes, low.leaves, params, bsdfs, sections, model_name, stack.to_json(indent=None),
                 (t, exprs, [low.ref(e) for e in exprs]), frame, images, st, ids)
-
-
-# ---------------------------------------------------------------- register pressure
-SVM_STACK = 255  # floats Cycles' SVM keeps for the live values of one shader
-SVM_HEADROOM = 40  # measured: plans peaking at up to 162 live values render, one at 230 runs out
-# Textured stacks (bench/nodes.md, docs/node_groups.md): 121, 174 and 236 live values render,
-# 206 (eight coats with media, only the base colour linked), 290 and 364 render black: the
-# estimate orders them only roughly, so above this the panel says the group may not fit.
-SVM_UNSURE = 150
-
-
-def live_values(plan: Plan) -> int:
-    """The most values that vary over the surface (they depend on the view direction) alive at
-    once when the plan's nodes run in order, each output counted in floats until its last reader
-    (the BSDF nodes read theirs at the end). Parameters are left out: Cycles folds nodes of
-    unlinked group inputs into constants. Cycles' SVM compiles the nested groups in this order
-    and holds the live values in a stack of ``SVM_STACK`` floats."""
-    view = {-1 - k for k, name in enumerate(plan.leaves) if name.startswith("wi_")}
-    varying: set[int] = set()
-    for i, n in enumerate(plan.nodes):
-        if any(isinstance(v, Out) and (v.node in view or v.node in varying) for v in n.inputs.values()):
-            varying.add(i)
-    last: dict[Out, int] = {}
-    for i, n in enumerate(plan.nodes):
-        for v in n.inputs.values():
-            if isinstance(v, Out) and v.node in varying:
-                last[v] = i
-    for v in plan.outputs:
-        if v.node in varying:
-            last[v] = len(plan.nodes)
-    delta = [0] * (len(plan.nodes) + 2)
-    for v, end in last.items():
-        width = 3 if v.socket in ("Vector", "Color") else 1
-        delta[v.node] += width
-        delta[end] -= width
-    live = peak = 0
-    for d in delta:
-        live += d
-        peak = max(peak, live)
-    return peak
-
-
-def fits_svm(plan: Plan) -> bool:
-    """Whether Cycles without OSL (SVM, what a GPU runs) can hold the plan's live values."""
-    return live_values(plan) <= SVM_STACK - SVM_HEADROOM
-
-
-# ---------------------------------------------------------------- chunks (nested groups)
-@dataclass
-class Chunk:
-    """A run of plan nodes (indices ``nodes``) built as one nested group: its inputs are the
-    outside values it reads, its outputs the values read after it. A section is a chunk of
-    chunks (``parts``): a second level of nesting, so that no tree holds many links either.
-    An ``own`` chunk is a run of nodes that read the material's own table (``own_nodes``), built
-    in the material's group itself rather than nested, so that every nested group depends on the
-    stack's structure alone and materials of one structure share them."""
-
-    scope: str
-    nodes: list
-    inputs: list = field(default_factory=list)
-    outputs: list = field(default_factory=list)
-    parts: list = field(default_factory=list)
-    digest: str = ""
-    own: bool = False
-
-
-def own_nodes(plan: Plan) -> frozenset[int]:
-    """The plan nodes that read the material's own table images (``Plan.images``)."""
-    return frozenset(i for i, n in enumerate(plan.nodes) if n.props.get("image") in plan.images)
-
-
-def _stratified(plan: Plan, own: frozenset[int]) -> list[int]:
-    """The plan's nodes in an order that keeps every node after what it reads and gathers the
-    ``own`` nodes into as few runs as possible: a node's stratum is the most ``own`` nodes on a
-    path into it; each stratum's other nodes come first, then its ``own`` nodes."""
-    level: dict[int, int] = {}
-    for i, n in enumerate(plan.nodes):
-        deps = [v.node for v in n.inputs.values() if isinstance(v, Out) and v.node >= 0]
-        level[i] = max((level[d] + (d in own) for d in deps), default=0)
-    return sorted(range(len(plan.nodes)), key=lambda i: (level[i], i in own, i))
-
-
-def _io(chunks: list[Chunk], owner: dict, plan: Plan, reads, extra=()) -> None:
-    """Fill the inputs (outside values read, in first-read order) and outputs (values read by
-    another chunk, by ``extra`` readers or by the BSDF nodes) of ``chunks``; ``reads(c)`` lists the
-    values ``c`` reads."""
-    wanted: dict[int, list] = {id(c): [] for c in chunks}
-    for c in chunks:
-        c.inputs = list(dict.fromkeys(v for v in reads(c) if v.node < 0 or owner.get(v.node) is not c))
-        for v in c.inputs:
-            if v.node in owner:
-                wanted[id(owner[v.node])].append(v)
-    for v in [*extra, *plan.outputs]:
-        if v.node in owner:
-            wanted[id(owner[v.node])].append(v)
-    for c in chunks:
-        c.outputs = list(dict.fromkeys(wanted[id(c)]))
-
-
-def partition(plan: Plan, size: int = CHUNK_NODES, per_section: int = SECTION_CHUNKS) -> list[Chunk]:
-    """Cut the plan's nodes (in ``_stratified`` order) into chunks of at most ``size`` nodes that
-    never span two scopes of the model nor an ``own`` node, and group consecutive chunks of one
-    scope into sections of at most ``per_section`` chunks. Returns the sections and the ``own``
-    chunks in the order to build them, each section with its chunks as ``parts``; every chunk and
-    section has its inputs, outputs and a digest of its content (names the nested group)."""
-    own = own_nodes(plan)
-    items: list[Chunk] = []  # sections and own chunks, in order
-    chunks: list[Chunk] = []
-    last = None
-    for i in _stratified(plan, own):
-        n = plan.nodes[i]
-        if i in own:
-            if last is None or not last.own:
-                last = Chunk(n.scope, [], own=True)
-                items.append(last)
-            last.nodes.append(i)
-            continue
-        if last is None or last.own or last.scope != n.scope:
-            last = None
-        if last is None or len(last.parts[-1].nodes) >= size:
-            if last is None or len(last.parts) >= per_section:
-                last = Chunk(n.scope, [])
-                items.append(last)
-            chunks.append(Chunk(n.scope, []))
-            last.parts.append(chunks[-1])
-        last.parts[-1].nodes.append(i)
-        last.nodes.append(i)
-    sections = [s for s in items if not s.own]
-
-    def node_reads(c):
-        return [v for i in c.nodes for v in plan.nodes[i].inputs.values() if isinstance(v, Out)]
-
-    own_reads = [v for i in sorted(own) for v in plan.nodes[i].inputs.values() if isinstance(v, Out)]
-    _io(chunks, {i: c for c in chunks for i in c.nodes}, plan, node_reads, own_reads)
-    _io(sections, {i: s for s in sections for i in s.nodes}, plan,
-        lambda s: [v for c in s.parts for v in c.inputs], own_reads)
-    for c in chunks:
-        c.digest = _chunk_digest(plan, c)
-    for s in sections:
-        s.digest = _section_digest(plan, s)
-    return items
-
-
-def _hash(obj) -> str:
-    return hashlib.sha1(json.dumps(obj).encode()).hexdigest()[:12]
-
-
-_VECTOR_OUTPUTS = {"Vector", "Result_Vector", "Normal"}
-_COLOR_OUTPUTS = {"Color", "Result_Color"}
-
-
-def value_type(plan: Plan, v: Out) -> str:
-    """What a plan value is: "vector" (a Combine XYZ's, a vector Mix's), "color" (an Image
-    Texture's) or "float" (every leaf and every other output)."""
-    if v.node < 0:
-        return "float"
-    return "vector" if v.socket in _VECTOR_OUTPUTS else "color" if v.socket in _COLOR_OUTPUTS else "float"
-
-
-def input_name(plan: Plan, v: Out, k: int) -> str:
-    """The socket name of a nested group's k-th input: the leaf's own name, else ``in<k>``."""
-    return plan.leaves[-1 - v.node] if v.node < 0 else f"in{k}"
-
-
-def _chunk_digest(plan: Plan, c: Chunk) -> str:
-    local = {i: k for k, i in enumerate(c.nodes)}
-    inputs = {v: k for k, v in enumerate(c.inputs)}
-
-    def ref(v):
-        if not isinstance(v, Out):
-            return repr(float(v))
-        if v.node >= 0 and v.node in local:
-            return f"n{local[v.node]}.{v.socket}"
-        return f"i{inputs[v]}"
-
-    body = [[plan.nodes[i].bl_idname, sorted(plan.nodes[i].props.items()),
-             sorted((s, ref(v)) for s, v in plan.nodes[i].inputs.items())] for i in c.nodes]
-    names = [(input_name(plan, v, k), value_type(plan, v)) for k, v in enumerate(c.inputs)]
-    return _hash([body, [ref(v) for v in c.outputs], names])
-
-
-def _section_digest(plan: Plan, s: Chunk) -> str:
-    inputs = {v: k for k, v in enumerate(s.inputs)}
-    made = {v: (k, j) for k, c in enumerate(s.parts) for j, v in enumerate(c.outputs)}
-
-    def ref(v):
-        return list(made[v]) if v in made else f"i{inputs[v]}"
-
-    wiring = [[c.digest, [ref(v) for v in c.inputs]] for c in s.parts]
-    names = [(input_name(plan, v, k), value_type(plan, v)) for k, v in enumerate(s.inputs)]
-    return _hash([wiring, [ref(v) for v in s.outputs], names])
-
-
-# ---------------------------------------------------------------- Blender semantics in numpy
-def _safe_div(a, b):
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(b != 0, a / np.where(b != 0, b, 1), 0).astype(a.dtype)
-
-
-def _safe_sqrt(a):
-    return np.where(a > 0, np.sqrt(np.maximum(a, 0)), 0).astype(a.dtype)
-
-
-def _safe_log(a, b):
-    ok = (a > 0) & (b > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(ok, np.log(np.where(ok, a, 1)) / np.log(np.where(ok, b, 2)), 0).astype(a.dtype)
-
-
-def _safe_pow(a, b):
-    """Blender's safe power: a negative base with a non-integer exponent gives 0."""
-    bad = (a < 0) & (b != np.floor(b))
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return np.where(bad, 0, np.power(np.where(bad, 1, a), b)).astype(a.dtype)
-
-
-_NP_MATH = {
-    "ADD": np.add, "SUBTRACT": np.subtract, "MULTIPLY": np.multiply, "DIVIDE": _safe_div,
-    "LESS_THAN": lambda a, b: (a < b).astype(a.dtype), "GREATER_THAN": lambda a, b: (a > b).astype(a.dtype),
-    "SQRT": _safe_sqrt, "EXPONENT": np.exp, "POWER": _safe_pow, "ABSOLUTE": np.abs, "MINIMUM": np.minimum,
-    "MAXIMUM": np.maximum, "COSINE": np.cos, "SINE": np.sin, "ARCTAN2": np.arctan2, "LOGARITHM": _safe_log,
-    "FLOOR": np.floor, "MULTIPLY_ADD": lambda a, b, c: a * b + c, "MODULO": np.fmod,
-}
-
-
-def table_pixels(file: str, dtype=np.float32) -> np.ndarray:
-    """The image as Blender holds it: rows bottom first, RGBA (a one-channel table in R, G, B)."""
-    for name, spec in luts.SPECS.items():
-        if spec.file == file:
-            atlas = luts.to_file(luts._to_atlas(luts.table(name)))
-            rgba = np.stack([atlas, atlas, atlas, np.ones_like(atlas)], axis=-1)
-            return rgba[::-1].astype(dtype)
-    for name, packed in luts.PACKED.items():
-        if packed == file:
-            n0, n1, n2 = luts.SPECS[name].shape
-            a = luts.table(name)
-            rgba = np.stack([luts.to_file(luts._to_atlas(a[:, :, c::4])) for c in range(4)], axis=-1)
-            return rgba[::-1].astype(dtype)
-    raise KeyError(file)
-
-
-def bilinear(img: np.ndarray, u, v):
-    """Linear, Extend image texture look-up (texel centres at (i + 0.5) / size)."""
-    h, w = img.shape[:2]
-    x = np.asarray(u) * w - 0.5
-    y = np.asarray(v) * h - 0.5
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    xi0, yi0 = np.clip(x0, 0, w - 1).astype(int), np.clip(y0, 0, h - 1).astype(int)
-    xi1, yi1 = np.clip(x0 + 1, 0, w - 1).astype(int), np.clip(y0 + 1, 0, h - 1).astype(int)
-    top = img[yi0, xi0] * (1 - fx) + img[yi0, xi1] * fx
-    bottom = img[yi1, xi0] * (1 - fx) + img[yi1, xi1] * fx
-    return (top * (1 - fy) + bottom * fy).astype(img.dtype)
-
-
-def closest(img: np.ndarray, u, v):
-    """Closest, Extend image texture look-up."""
-    h, w = img.shape[:2]
-    xi = np.clip(np.floor(np.asarray(u) * w), 0, w - 1).astype(int)
-    yi = np.clip(np.floor(np.asarray(v) * h), 0, h - 1).astype(int)
-    return img[yi, xi]
-
-
-def evaluate_plan(plan: Plan, values: dict, dtype=np.float32):
-    """Run the plan on leaf ``values`` (by name, broadcastable arrays) with Blender's node
-    semantics in ``dtype``. Returns ``value_of(ref)``: the value of an ``Out`` (or a literal)."""
-    dtype = np.dtype(dtype)
-    leaves = [np.asarray(values[name], dtype=dtype) for name in plan.leaves]
-    env: dict[int, dict] = {}
-    images: dict[str, np.ndarray] = {}
-
-    def get(v):
-        if not isinstance(v, Out):
-            return dtype.type(v)
-        return leaves[-1 - v.node] if v.node < 0 else env[v.node][v.socket]
-
-    with np.errstate(over="ignore", invalid="ignore"):
-        for i, n in enumerate(plan.nodes):
-            x = {k: get(v) for k, v in n.inputs.items()}
-            if n.bl_idname == "ShaderNodeMath":
-                args = [np.asarray(x[k], dtype=dtype) for k in MATH_IN if k in x]
-                r = np.asarray(_NP_MATH[n.props["operation"]](*args), dtype=dtype)
-                env[i] = {"Value": np.clip(r, 0, 1).astype(dtype) if n.props.get("use_clamp") else r}
-            elif n.bl_idname == "ShaderNodeCombineXYZ":
-                env[i] = {"Vector": np.broadcast_arrays(*(np.asarray(x[k], dtype=dtype) for k in "XYZ"))}
-            elif n.bl_idname == "ShaderNodeTexImage":
-                f = n.props["image"]
-                if f not in images:
-                    images[f] = plan.images[f].astype(dtype) if f in plan.images else table_pixels(f, dtype)
-                u, v, _ = x["Vector"]
-                read = closest if n.props.get("interpolation") == "Closest" else bilinear
-                rgba = read(images[f], u, v)
-                env[i] = {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
-            elif n.bl_idname == "ShaderNodeMix":
-                a, b = np.asarray(x["A_Vector"], dtype=dtype), np.asarray(x["B_Vector"], dtype=dtype)
-                f = np.asarray(x["Factor_Float"], dtype=dtype)[..., None]
-                env[i] = {"Result_Vector": (a + (b - a) * f).astype(dtype)}
-            elif n.bl_idname == "ShaderNodeSeparateXYZ":
-                c = x["Vector"]
-                env[i] = {"X": c[..., 0], "Y": c[..., 1], "Z": c[..., 2]}
-            else:
-                raise NotImplementedError(n.bl_idname)
-    return get

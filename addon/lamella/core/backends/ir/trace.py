@@ -13,8 +13,8 @@ import math
 import operator
 from typing import Any
 
-from ..param_id import ParamId
-from .traced_ops import OPS
+from ...param_id import ParamId
+from .traced_ops import OPS, Ops, TracedOp
 
 _BINARY = {
     "add": operator.add, "sub": operator.sub, "mul": operator.mul, "div": operator.truediv,
@@ -65,7 +65,7 @@ def _is_num(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
-class Tracer:
+class Tracer(Ops):
     """The ops of the tracing backend. ``nodes`` lists the graph's nodes in creation order
     (a topological order); ``params`` and ``inputs`` the leaves by name."""
 
@@ -108,8 +108,11 @@ class Tracer:
                 raise TypeError(f"cannot trace operand {a!r} of type {type(a).__name__}")
             norm.append(a)
         args = tuple(norm)
-        if numbers and op in _FOLD:
-            folded = _FOLD[op](*args)
+        if numbers:
+            fold = _FOLD.get(op)
+            if fold is None and op in OPS:
+                fold = OPS[op].fold
+            folded = fold(*args) if fold is not None else None
             if folded is not None:
                 return folded
         simplified = _simplify(op, args)
@@ -123,6 +126,10 @@ class Tracer:
         self._cache[key] = e
         self.nodes.append(e)
         return e
+
+    def apply(self, op: TracedOp, *xs):
+        """A registered traced operation (``traced_ops``): a node, folded on numbers."""
+        return self.node(op.name, *xs)
 
     def const(self, x):
         return float(x)
@@ -302,18 +309,8 @@ def _compile(nodes: list[Expr], own: set[int]):
     return namespace["_evaluate"]
 
 
-_FOLD = dict(_BINARY)  # the value of an operation on numbers; the functions' from ``traced_ops``
+_FOLD = dict(_BINARY)  # the value of an operation on numbers; the functions' is their ``TracedOp.fold``
 _FOLD["select"] = lambda c, a, b: a if c else b
-
-
-def install(op) -> None:
-    """``ops.<name>`` of a traced operation (``traced_ops``) on the tracer, and its folding."""
-    setattr(Tracer, op.name, lambda self, *xs: self.node(op.name, *xs))
-    _FOLD[op.name] = op.fold
-
-
-for _op in OPS.values():
-    install(_op)
 
 
 def _simplify(op, args):

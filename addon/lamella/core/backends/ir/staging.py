@@ -33,17 +33,18 @@ read that, never printed text.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .. import luts
-from ..stack import Stack
+from ... import luts
+from ...stack import Stack
+from ..numpy_ops import NumpyOps
 from . import lobe_budget
 from .closures import Closure, trace_closures
 from .live_axes import axis_nodes, axis_of, lookup_axes
-from .numpy_ops import NumpyOps
 from .sockets import params_of, socket_names, sockets
 from .trace import Expr, Tracer
 
@@ -176,8 +177,6 @@ class Staged:
         """What identifies the compiled shader apart from the table's values and the live
         parameters' values: the staged graph's shape, the closures, the table's size and the
         parameters (the sockets)."""
-        import hashlib
-
         t = self.tracer
         outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
@@ -671,53 +670,4 @@ def _axes_of_tensor(ops, txx, tyy, txy) -> dict:
     return {"ax": e["big"], "ay": ops.max(e["small"], 0.0), "cos": e["cos"], "sin": e["sin"]}
 
 
-def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = None) -> np.ndarray:
-    """f(wi, wo) |wo.z| of the staged shader (numpy, ``dtype``) for directions in the shading
-    frame (N, 3): what the emitted shaders compute, to hold them to the traced model."""
-    wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
-    wo = np.asarray(wo, dtype=np.float64).reshape(-1, 3)
-    wi = np.broadcast_to(wi, wo.shape)
-    if st.frame == "view":
-        wi, wo = to_view_frame(wi, wo)
-    ops = StagedOps(st.table, dtype, st.axis_tables)
-    dtype = ops.dtype.type
-    vals = {n: wi[:, k].astype(dtype) for k, n in enumerate(VIEW_INPUTS)}
-    vals.update(st.params)
-    if values:
-        vals.update(values)
-    outs = [x for c in st.closures for x in (*c.weight, *c.args.values())]
-    with np.errstate(all="ignore"):
-        got = st.tracer.evaluate(outs, ops, vals)
-    env = dict(zip(map(id, outs), got))
-    wi_o = tuple(ops.input(n, wi[:, k]) for k, n in enumerate(VIEW_INPUTS))
-    wo_o = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
-    total = np.zeros((wo.shape[0], 3), dtype=dtype)
-
-    def v(x):
-        return env[id(x)] if isinstance(x, Expr) else dtype(x)
-
-    for c in st.closures:
-        with np.errstate(all="ignore"):
-            f = c.kind.cos_of_args(ops, {k: v(x) for k, x in c.args.items()}, wi_o, wo_o)
-        w = np.stack([np.broadcast_to(v(x), (wo.shape[0],)) for x in c.weight], -1)
-        on = w.max(-1) > ENERGY_EPS  # the emitters' test: a dark lobe adds no closure
-        total += np.where(on[:, None], w * np.broadcast_to(f, (wo.shape[0],))[:, None], 0.0).astype(dtype)
-    return total
-
-
-def to_view_frame(wi, wo):
-    """Directions turned about the normal so that wi's azimuth is 0 (wi in the x-z plane); at
-    normal incidence the shading frame is kept."""
-    s = np.hypot(wi[:, 0], wi[:, 1])
-    ok = s > 1e-12
-    cp = np.where(ok, wi[:, 0] / np.where(ok, s, 1.0), 1.0)
-    sp = np.where(ok, wi[:, 1] / np.where(ok, s, 1.0), 0.0)
-
-    def turn(w):
-        return np.stack([cp * w[:, 0] + sp * w[:, 1], -sp * w[:, 0] + cp * w[:, 1], w[:, 2]], -1)
-
-    return turn(wi), turn(wo)
-
-
-__all__ = ["ViewGrid", "Staged", "StagedOps", "stage", "grid_values", "lookup", "evaluate_staged", "isotropic",
-           "to_view_frame", "N_MU", "N_PHI"]
+__all__ = ["ViewGrid", "Staged", "StagedOps", "stage", "grid_values", "lookup", "isotropic", "N_MU", "N_PHI"]

@@ -10,10 +10,10 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass
 
-from .. import lobe_kinds
-from ..models import resolve
-from ..models.adding_doubling import layer_params
-from ..stack import Stack
+from ... import lobe_kinds
+from ...models import resolve
+from ...models.types import layer_params
+from ...stack import Stack
 from .trace import Tracer
 
 

@@ -2,7 +2,7 @@
 
 ``write_bundle`` writes into one folder:
 
-* ``<shader>.osl``: the generated shader (``lamella.core.backends.osl``), staged as Blender
+* ``<shader>.osl``: the generated shader (``lamella.core.backends.osl.emit``), staged as Blender
   renders it (the view-only part a constant table inside the shader, lobes merged to the lobe
   budget) with the parameters named ``live`` left as inputs (``"all"``: every parameter) and no
   other input; with the view line of the target renderer (``osl.VIEW_TARGETS``: Cycles' ``I``
@@ -22,11 +22,19 @@ import json
 import shutil
 from pathlib import Path
 
-from .. import lobe_kinds, luts
-from ..layers.schema import RGB, ROUGHNESS
-from ..models import resolve
-from ..stack import Stack
-from .osl import VIEW_LINES, VIEW_TARGETS, OslShader, ShaderParam, _identifier, osl_shader
+from ... import lobe_kinds, luts
+from ...layers.schema import RGB, ROUGHNESS
+from ...models import resolve
+from ...stack import Stack
+from ..ir.closures import trace_closures
+from .emit import (
+    VIEW_LINES,
+    VIEW_TARGETS,
+    OslShader,
+    ShaderParam,
+    _identifier,
+    osl_shader,
+)
 
 TABLES_DIR = "luts"  # the bundle's table folder, and the shader's default lut_dir
 README = "README.md"
@@ -274,8 +282,6 @@ def write_bundle(stack, out_dir, model: str = "auto", target: str = "cycles", *,
         name = _identifier(Path(file_name).stem)
     model_name = resolve(model, stack).name
     if live == "all":
-        from .closures import trace_closures
-
         live = tuple(trace_closures(stack, model).tracer.params)  # every parameter, so every socket
     shader = osl_shader(stack, model, name, lut_dir if lut_dir else TABLES_DIR, target, tuple(live), budget,
                         declare="live")

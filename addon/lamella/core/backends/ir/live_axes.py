@@ -26,9 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..layers.schema import ANGLE
-from ..param_id import ParamId, r_from_alpha
-from ..stack import Stack
+from ...layers.schema import ANGLE
+from ...param_id import ParamId, r_from_alpha
+from ...stack import Stack
 
 N_AXIS = 17  # nodes along a parameter axis (bench/linked_tables.md: the error and size they give)
 N_AXIS_WIDE = 9  # along an axis other than a roughness's or an albedo's in a table over three parameters

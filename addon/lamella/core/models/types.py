@@ -1,0 +1,38 @@
+"""The types every model shares: the lobes a model returns (``Lobe``), the error for a stack a
+model cannot represent (``UnsupportedStack``), every layer's parameters as backend values
+(``layer_params``, from the layer kinds' own ``params``) and the smallest cosine a path length
+divides by (``COS_FLOOR``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..param_id import slots
+from .rgb import RGB
+
+COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
+
+
+class UnsupportedStack(ValueError):
+    """The model cannot represent this stack; the message says why."""
+
+
+@dataclass
+class Lobe:
+    """A lobe of a model, in backend values: energy (RGB), roughness along its own axes, the
+    angle of those axes from the shading tangent, its kind (a name of ``lamella.core.lobe_kinds``)
+    and, for a transmission lobe, the index of the medium it enters relative to vacuum above."""
+
+    weight: RGB
+    alpha_x: object
+    alpha_y: object
+    rotation: object
+    kind: str = "reflection"
+    eta: object = 1.0
+
+
+def layer_params(ops, stack):
+    """Every per-layer parameter as a backend value (a shader input when traced), by the layer
+    kinds' own ``params``."""
+    coat_slots, base_slot = slots(stack)
+    coats = [c.kind.params(ops, slot, c) for slot, c in zip(coat_slots, stack.coats)]
+    return coats, stack.base.kind.params(ops, base_slot, stack.base)
