@@ -96,17 +96,31 @@ def _doc_pages():
 
 
 def _spans(path, root=ROOT):
-    """(file:line, text, is_code_line) for every inline code span and every line of a fenced block."""
-    fenced = False
+    """(file:line, text, is_code_line) for every inline code span (which may run over a line break
+    within its paragraph, as Markdown has it) and every line of a fenced block."""
+    fenced, paragraph = False, []
+
+    def inline(paragraph):
+        text = " ".join(line for _, line in paragraph)
+        starts = [0]
+        for _, line in paragraph:
+            starts.append(starts[-1] + len(line) + 1)
+        for m in re.finditer(r"`([^`]+)`", text):
+            k = max(i for i, start in enumerate(starts[:-1]) if start <= m.start())
+            yield paragraph[k][0], re.sub(r"\s+", " ", m.group(1)).strip(), False
+
     for where, line in _lines(path, root):
         if line.lstrip().startswith("```"):
-            fenced = not fenced
-            continue
-        if fenced:
+            yield from inline(paragraph)
+            paragraph, fenced = [], not fenced
+        elif fenced:
             yield where, line, True
+        elif not line.strip() or line.lstrip().startswith(("|", "#")):
+            yield from inline(paragraph + ([(where, line)] if line.strip() else []))
+            paragraph = []
         else:
-            for m in re.finditer(r"`([^`]+)`", line):
-                yield where, m.group(1).strip(), False
+            paragraph.append((where, line))
+    yield from inline(paragraph)
 
 
 class _Source:
@@ -413,9 +427,11 @@ def _unheld_figures(pages, root=ROOT):
         for block in _blocks(page, root):
             cited = {m.group(1) for _, line in block for m in BENCH_PAGE.finditer(line)} & set(by_page)
             held = set().union(*(by_page[c] for c in cited)) if cited else everywhere
-            for where, line in block:
-                prose = re.sub(r"`[^`]*`", "``", line)
-                for m in FIGURE.finditer(prose):
+            # code spans out (they may run over a line break), the block's lines kept
+            prose = re.sub(r"`[^`]*`", lambda m: "``" + "\n" * m.group(0).count("\n"),
+                           "\n".join(line for _, line in block)).split("\n")
+            for (where, _), line in zip(block, prose):
+                for m in FIGURE.finditer(line):
                     figure = m.group(0).strip()
                     numbers = _numbers(next(g for g in m.groups() if g))
                     if figure not in DESIGN_CONSTANTS and any(_same_number(n) not in held for n in numbers):
