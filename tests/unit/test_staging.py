@@ -1,6 +1,6 @@
 """The staged shader (float32 table, linear reads, every lobe) against the traced model it bakes:
 relative L1 (RGB averaged) on the hemisphere grid, at incidence up to 85 degrees (and several
-azimuths for anisotropic stacks), below 0.5 % (bench/staging.md: worst 0.41 % over the suite);
+azimuths for anisotropic stacks), below 0.5 % (bench/staging.md has the worst over the suite);
 a value edit changes the table, not the structure; linked parameters stay live."""
 import json
 

@@ -416,7 +416,7 @@ def build_group(plan: Plan, name: str, tree=None):
     _sync_interface(tree, plan)
     tree.nodes.clear()
     tree.description = (f"Lamella layered material ({plan.model}): in Cycles the closures of the OSL shader; "
-                        "EEVEE renders anisotropic lobes isotropic (alpha = sqrt(ax ay)), see the README")
+                        "EEVEE renders anisotropic lobes isotropic (alpha = sqrt(ax ay)), see docs/node_groups.md")
     nt = tree
     g = _Vec(nt)
     gin = nt.nodes.new("NodeGroupInput")
