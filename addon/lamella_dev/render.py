@@ -126,7 +126,7 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
     merged to ``budget``, the sockets or parameters ``live`` read live, as if a texture were linked
     into them) or, with ``staged`` False, the whole traced model. ``live_axes``: the node group's
-    tables over linked parameters (``node_graph.emit_plan``)."""
+    tables over linked parameters (``lower.emit_plan``)."""
     bpy = _bpy()
     mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":

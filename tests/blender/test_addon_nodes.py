@@ -163,7 +163,7 @@ def test_sockets_speak_the_panels_units(addon, case, socket, value):
     with the node group (the linked parameter is read live, the rest from the table), and the
     Script node shows no internal input. (Blender 4.2 and 4.5 rendered the live coat roughness 4 %
     too bright in SVM while nested groups passed vectors and colours through float sockets, which
-    those versions convert: the sockets now carry each value's type, ``node_graph.value_type``.)"""
+    those versions convert: the sockets now carry each value's type, ``plan.value_type``.)"""
     sc, sphere = sphere_scene(res=32, spp=1, scene="sphere-sun")
     sc.cycles.filter_width = 0.01
     mat = new_material(sphere)

@@ -57,7 +57,7 @@ def test_no_work_items_or_numbered_papers():
 def test_the_checks_see_what_they_are_for():
     """The patterns catch what they are meant to (a check that matches nothing passes forever)."""
     assert PATH.search("see docs/missing_page.md").group(1) == "docs/missing_page.md"
-    assert PATH.search("(`core/backends/sockets.py`)").group(1) == "core/backends/sockets.py"
+    assert PATH.search("(`core/backends/ir/sockets.py`)").group(1) == "core/backends/ir/sockets.py"
     for text in ("DESIGN.md", "paper 001 Eq. 3", "(issue 3)", "Issue #12", "../shared/BLENDER_NOTES.md"):
         assert WORK_ITEM.search(text), text
     for text in ("Randrianandrasana et al. 2021, Eq. 37", "tissue 3", "paper 2021"):
@@ -377,7 +377,7 @@ DESIGN_CONSTANTS = {
     "0.5 s": ("addon/lamella/blender/recompile.py", "DRAG_WINDOW = 0.5"),  # an edit this soon continues a drag
     "0.3 s": ("addon/lamella/blender/recompile.py", "SETTLE_DELAY = 0.3"),  # quiet before a drag settles
     "2.5 %": ("tests/unit/test_models.py", "0.025 * walk[0]"),  # bare rough metals against the walk
-    "1 %": ("addon/lamella/core/backends/lobe_budget.py", "AUTO_TOLERANCE = 0.01"),  # the automatic budget
+    "1 %": ("addon/lamella/core/backends/ir/lobe_budget.py", "AUTO_TOLERANCE = 0.01"),  # the automatic budget
     "0.5 %": ("tests/unit/test_staging.py", "worst < 0.005"),  # the staged shader against the traced model
     "10 %": ("tests/unit/test_accuracy.py", "1.1 * best"),  # `auto` against the best model
     "2 %": ("tests/unit/test_trapped_light.py", "(0.0, 0.02)"),  # trapped light at normal incidence

@@ -149,7 +149,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
            "*Linked part*: what the model they reach becomes in the group: traced, or, where that is more than "
            "Cycles' SVM surely holds, read from tables over (view, linked parameters) (`live_axes`; "
            "bench/linked_tables.md). *Live values*: what the group keeps alive at once in Cycles without OSL "
-           "(`node_graph.live_values`, an estimate; SVM holds about 215). Mean radiance of the sphere, same "
+           "(`svm.live_values`, an estimate; SVM holds about 215). Mean radiance of the sphere, same "
            "links, in Cycles with OSL (which traces the linked part) and without (SVM).", "",
            "| stack | live sockets | linked part | plan nodes | closures / lobes | live values | SVM render | mean, OSL | mean, SVM |",
            "|---|---|---|---:|---:|---:|---|---:|---:|"]

@@ -1,5 +1,5 @@
 // Lamella look-up tables for OSL: multilinear reads of the tables of lamella.core.luts.
-// Inlined by the emitter (lamella/core/backends/osl.py) into every generated shader, so a
+// Inlined by the emitter (lamella/core/backends/osl/emit.py) into every generated shader, so a
 // shader only needs the EXR files in `lut_dir`. Tables are node-centred: a coordinate c in [0, 1]
 // of an axis with n nodes sits at c * (n - 1). 3D tables are atlases of their last axis's slices
 // stacked vertically (rows = first axis, columns = second axis), as lamella.core.luts writes them;
