@@ -1,4 +1,7 @@
-"""Benchmarks and stored references (pure numpy + the stochastic reference; no bpy)."""
+"""Benchmarks and stored references (pure numpy + the stochastic reference; no bpy at import).
+
+Every bench module registers its ``Bench`` (``registry``) at its bottom; the imports at the end of
+this file are where the built-in benches join ``lamella bench``."""
 from pathlib import Path
 
 
@@ -13,3 +16,6 @@ REPO = _repository()
 REFERENCE_DIR = REPO / "tests" / "references" / "brdf"  # single-scattering rough interfaces
 REFERENCE_DIR_MULTIPLE = REPO / "tests" / "references" / "brdf_multiple"  # multiple-scattering interfaces
 BENCH_DIR = REPO / "bench"
+
+from .page import write_page  # noqa: E402
+from .registry import BENCHES, Bench, cases_argument, register, unregister  # noqa: E402
