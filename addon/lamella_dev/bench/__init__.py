@@ -19,3 +19,10 @@ BENCH_DIR = REPO / "bench"
 
 from .page import write_page  # noqa: E402
 from .registry import BENCHES, Bench, cases_argument, register, unregister  # noqa: E402
+
+# the built-in benches (each registers itself; after the paths above, which they import)
+from . import (  # noqa: E402,F401
+    accuracy, albedo_controls, eevee_closures, eevee_gap, eevee_standins, energy, holdout, image_references, images,
+    linked_tables, lobe_floor, luts_error, materialx, node_cost, osl_cost, pareto, recompile, scene, staging,
+    trapping,
+)

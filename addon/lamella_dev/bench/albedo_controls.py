@@ -11,13 +11,14 @@ ratio away from 1 is a term the model misses. Numpy only, a few seconds.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 
 from lamella.core import Stack, api
 from .. import reference, suite
 from . import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}
 ABSORPTIONS = ((0.0, 0.0, 0.0), (0.2, 0.8, 0.8), (1.0, 2.0, 4.0))  # 1 / length, over thickness 0.5
@@ -55,7 +56,10 @@ def rows(walkers: int = WALKERS, seed: int = 0) -> list[dict]:
 
 def run(out_dir: Path = BENCH_DIR) -> Path:
     data = rows()
-    (out_dir / "albedo_controls.json").write_text(json.dumps(data, indent=1))
+    return write_page(out_dir, "albedo_controls", lambda: _markdown(data), data)
+
+
+def _markdown(data: list[dict]) -> str:
     md = ["# Albedo of coated gold, one factor at a time",
           "",
           f"`lamella bench albedo-controls`: `auto`'s directional albedo over the energy-conserving walk's "
@@ -85,9 +89,11 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
            "normal incidence (sigma_a 0.2/0.8/0.8: 9-11 %; Beer-Lambert along the lobe's mean direction leaves "
            "out the longer paths of its oblique directions), and under a rough coat over a smooth mirror at 60° "
            "(13 % in R: the trapped light crosses the coat along steep paths).", ""]
-    path = out_dir / "albedo_controls.md"
-    path.write_text("\n".join(md))
-    return path
+    return "\n".join(md)
 
+
+BENCH = register(Bench("albedo-controls",
+                       "coated gold one factor at a time: the model's albedo over the energy-conserving walk's",
+                       lambda out_dir, args: run(out_dir)))
 
 __all__ = ["controls", "rows", "run"]

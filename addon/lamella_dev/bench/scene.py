@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from . import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 COUNT = 200
 RES, SPP = 160, 16
@@ -182,11 +184,7 @@ def measure(count: int = COUNT, progress=print) -> dict:
 
 def run(out_dir: Path = BENCH_DIR, count: int = COUNT, progress=print) -> Path:
     data = measure(count, progress)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "scene.json").write_text(json.dumps(data, indent=1) + "\n")
-    path = out_dir / "scene.md"
-    path.write_text(format_markdown(data))
-    return path
+    return write_page(out_dir, "scene", lambda: format_markdown(data), data)
 
 
 def format_markdown(d: dict) -> str:
@@ -219,3 +217,15 @@ def format_markdown(d: dict) -> str:
         "Targets: first frame within 1.5x Principled's in each engine; under 30 kB per untextured material.",
     ]
     return "\n".join(lines) + "\n"
+
+
+def _arguments(parser) -> None:
+    from ..cli import _count
+
+    parser.add_argument("--count", type=_count("--count"), default=COUNT,
+                        help=f"how many objects and materials (default {COUNT})")
+
+
+BENCH = register(Bench("scene",
+                       "a production-sized scene against the Principled BSDF: apply, edit, file size, first frames",
+                       lambda out_dir, args: run(out_dir, count=args.count), _arguments))
