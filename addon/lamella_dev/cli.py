@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .arguments import count as _count
+
 
 def _fail(message: str) -> SystemExit:
     print(f"lamella: {message}", file=sys.stderr)
@@ -21,20 +23,6 @@ def _fail(message: str) -> SystemExit:
 
 
 MAX_RESOLUTION = 16384  # pixels a side: Blender's own limit for a render's resolution
-
-
-def _count(what: str, hi: int | None = None):
-    """An argparse type: a whole number from 1 (to ``hi``), else exit code 2 with one line."""
-    def parse(text: str) -> int:
-        try:
-            n = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a whole number, got {text!r}") from None
-        if n < 1 or (hi is not None and n > hi):
-            raise argparse.ArgumentTypeError(f"{what} must be from 1 to {hi}, got {n}" if hi is not None
-                                             else f"{what} must be 1 or more, got {n}")
-        return n
-    return parse
 
 
 BLEND_MAGIC = (b"BLENDER", b"\x28\xb5\x2f\xfd", b"\x1f\x8b")  # a .blend as written, zstd- or gzip-compressed
@@ -154,102 +142,44 @@ def cmd_stress(a) -> int:
 
 
 def cmd_bench(a) -> int:
-    from .bench import BENCH_DIR
+    """``lamella bench <name>``: the registered bench of that name (``lamella_dev.bench.registry``)
+    writes its page into ``--out`` (default bench/); the page is printed."""
+    from .bench import BENCH_DIR, BENCHES
 
-    if a.what == "accuracy":
-        from .bench import accuracy
-
-        md, js = accuracy.run()
-        print(md.read_text())
-        print(f"wrote {md} and {js}")
-    elif a.what == "energy":
-        from .bench import energy
-
-        md = energy.run(BENCH_DIR)
-        print(md.read_text())
-    elif a.what == "luts":
-        from .bench import luts_error
-
-        md = luts_error.run(BENCH_DIR)
-        print(md.read_text())
-    elif a.what == "osl-cost":
-        from .bench import osl_cost
-
-        md, _ = osl_cost.run()
-        print(md.read_text())
-    elif a.what == "recompile":
-        from .bench import recompile
-
-        print(recompile.run(BENCH_DIR).read_text())
-    elif a.what == "staging":
-        from .bench import staging
-
-        print(staging.run(BENCH_DIR).read_text())
-    elif a.what == "scene":
-        from .bench import scene
-
-        print(scene.run(BENCH_DIR, count=a.count or scene.COUNT).read_text())
-    elif a.what == "holdout":
-        from .bench import holdout
-
-        if a.references:
-            holdout.compute_references(holdout.draw())
-        print(holdout.run()[0].read_text())
-    elif a.what == "albedo-controls":
-        from .bench import albedo_controls
-
-        print(albedo_controls.run(BENCH_DIR).read_text())
-    elif a.what == "linked-tables":
-        from .bench import linked_tables
-
-        print(linked_tables.run(BENCH_DIR).read_text())
-    elif a.what == "nodes":
-        from .bench import node_cost
-
-        print(node_cost.run(BENCH_DIR).read_text())
-    elif a.what == "eevee-anisotropy":
-        from .bench import eevee_standins
-
-        print(eevee_standins.run(BENCH_DIR).read_text())
-    elif a.what == "eevee-closures":
-        from .bench import eevee_closures
-
-        print(eevee_closures.run(BENCH_DIR).read_text())
-    elif a.what == "eevee-gap":
-        from .bench import eevee_gap
-
-        print(eevee_gap.run(BENCH_DIR, cases=a.cases.split(",") if a.cases else None).read_text())
-    elif a.what == "trapping":
-        from .bench import trapping
-
-        print(trapping.run(BENCH_DIR).read_text())
-    elif a.what == "lobe-floor":
-        from .bench import lobe_floor
-
-        print(lobe_floor.run(BENCH_DIR).read_text())
-    elif a.what == "shells":
-        from .bench import image_references
-
-        print(image_references.thickness_study().read_text())
-    elif a.what == "pareto":
-        from .bench import pareto
-
-        out = Path(a.out) if a.out else BENCH_DIR
-        if a.replot:
-            print(pareto.rewrite(out, quick=a.quick).read_text())
-        else:
-            print(pareto.run(out, quick=a.quick, cases=a.cases.split(",") if a.cases else None).read_text())
-    elif a.what == "materialx":
-        from .bench import materialx
-
-        print(materialx.run(BENCH_DIR).read_text())
-    elif a.what == "images":
-        from .bench import images
-
-        md, js = images.run(a.cases.split(",") if a.cases else None, interfaces=a.interfaces)
-        print(md.read_text())
-        print(f"wrote {md}, {js} and bench/{md.stem}/*.png")
+    page = BENCHES[a.what].run(Path(a.out) if a.out else BENCH_DIR, a)
+    print(page.read_text(encoding="utf-8"))
+    data = page.with_suffix(".json")
+    print(f"wrote {page}" + (f" and {data}" if data.is_file() else ""))
     return 0
+
+
+def cmd_bench_list(a) -> int:
+    """``lamella bench list``: every registered bench, one line each."""
+    from .bench import BENCHES
+
+    width = max(map(len, BENCHES), default=0)
+    for name in sorted(BENCHES):
+        print(f"{name:<{width}}  {BENCHES[name].description}")
+    return 0
+
+
+def _bench_parsers(p: argparse.ArgumentParser) -> None:
+    """One subcommand per registered bench: its description as the help, ``--out``, and the
+    options the bench declares (``Bench.arguments``)."""
+    from .bench import BENCHES
+
+    benches = p.add_subparsers(dest="what", required=True, metavar="NAME",
+                               title="benchmarks (`lamella bench NAME --help`: its options)")
+    q = benches.add_parser("list", help="every benchmark, one line each")
+    q.set_defaults(fn=cmd_bench_list)
+    for name in sorted(BENCHES):
+        bench = BENCHES[name]
+        text = bench.description.replace("%", "%%")  # argparse formats help text with %
+        q = benches.add_parser(name, help=text, description=text)
+        q.add_argument("--out", help="the folder to write the page into (default: bench/)")
+        if bench.arguments is not None:
+            bench.arguments(q)
+        q.set_defaults(fn=cmd_bench)
 
 
 def cmd_export_osl(a) -> int:
@@ -463,22 +393,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out")
     p.set_defaults(fn=cmd_references)
 
-    p = sub.add_parser("bench", help="benchmarks")
-    p.add_argument("what", choices=["accuracy", "energy", "luts", "images", "osl-cost", "recompile", "staging", "nodes", "linked-tables", "albedo-controls", "holdout", "eevee-anisotropy",
-                                       "eevee-closures", "eevee-gap", "shells",
-                                       "trapping", "lobe-floor", "pareto", "materialx", "scene"])
-    p.add_argument("--cases", help="images, pareto, eevee-gap: comma-separated suite cases (default: all)")
-    p.add_argument("--quick", action="store_true", help="pareto: one scattering stack, 32 px, two sample counts")
-    p.add_argument("--count", type=_count("--count"), help="scene: how many objects and materials (default 200)")
-    p.add_argument("--out", help="pareto: the folder to write into (default: bench/)")
-    p.add_argument("--replot", action="store_true", help="pareto: tables and plots again from the stored pareto.json")
-    p.add_argument("--references", action="store_true",
-                   help="holdout: draw the hold-out stacks and compute their energy-conserving references first "
-                        "(about 30 minutes of CPU)")
-    p.add_argument("--interfaces", choices=["single", "multiple"], default="single",
-                   help="images: against the single-scattering references (bench/images.md) or the energy-conserving "
-                        "ones (tests/references/images_multiple, bench/images_multiple.md)")
-    p.set_defaults(fn=cmd_bench)
+    p = sub.add_parser("bench", help="benchmarks: each writes its page under bench/ (`lamella bench list`)")
+    _bench_parsers(p)
 
     p = sub.add_parser("stress", help="numerical stress: a million random stacks, a render grid of extreme stacks, "
                                       "a soak of random edits (bench/stress.md)")

@@ -100,3 +100,94 @@ def test_apply_refuses_a_file_that_is_not_a_blend(tmp_path):
                         "--material", "m", "-o", str(tmp_path / "out.blend")], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines()[-1] == f"lamella: apply: {p} is not a .blend file"
+
+
+# ---------------------------------------------------------------- lamella bench
+def _documented_benches() -> set[str]:
+    """The bench names the Makefile, the README and the command reference (docs/commands.md) run."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    text = "".join((root / f).read_text() for f in ("Makefile", "README.md", "docs/commands.md"))
+    return set(re.findall(r"lamella bench ([a-z][a-z0-9-]*)", text))
+
+
+def test_every_bench_the_makefile_and_docs_run_is_a_subcommand():
+    from lamella_dev.bench import BENCHES
+    from lamella_dev.cli import build_parser, cmd_bench
+
+    names = _documented_benches()
+    assert len(names) >= 20 and names <= set(BENCHES), names - set(BENCHES)
+    for name in names:
+        args = build_parser().parse_args(["bench", name])
+        assert args.what == name and args.fn is cmd_bench and args.out is None
+
+
+def test_bench_options_reach_their_bench():
+    from lamella_dev.bench import scene
+    from lamella_dev.cli import build_parser
+
+    parse = build_parser().parse_args
+    a = parse(["bench", "pareto", "--quick", "--cases", "fog_g09_d1,gold_coated", "--out", "x", "--replot"])
+    assert (a.quick, a.replot, a.cases, a.out) == (True, True, ["fog_g09_d1", "gold_coated"], "x")
+    assert parse(["bench", "pareto"]).cases is None and not parse(["bench", "pareto"]).quick
+    a = parse(["bench", "images", "--interfaces", "multiple", "--cases", "gold_coated"])
+    assert (a.interfaces, a.cases) == ("multiple", ["gold_coated"])
+    assert parse(["bench", "images"]).interfaces == "single"
+    assert parse(["bench", "eevee-gap", "--cases", "gold_coated"]).cases == ["gold_coated"]
+    assert parse(["bench", "holdout", "--references"]).references and not parse(["bench", "holdout"]).references
+    assert parse(["bench", "scene"]).count == scene.COUNT and parse(["bench", "scene", "--count", "3"]).count == 3
+
+
+@pytest.mark.parametrize("args, message", [
+    (["bench", "scene", "--count", "0"], "--count must be 1 or more, got 0"),
+    (["bench", "energy", "--quick"], "unrecognized arguments: --quick"),  # an option of another bench
+    (["bench", "images", "--interfaces", "double"], "invalid choice: 'double'"),
+    (["bench"], "required: NAME"),
+])
+def test_bench_refuses_what_it_cannot_run(args, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(args)
+    assert e.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_bench_list_and_help_name_every_bench(capsys):
+    from lamella_dev.bench import BENCHES
+
+    assert main(["bench", "list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == sorted(BENCHES)
+    assert all(line.split(None, 1)[1] == BENCHES[line.split()[0]].description for line in lines)
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    helped = capsys.readouterr().out
+    assert all(name in helped for name in BENCHES)
+
+
+def test_bench_pages_are_written_by_one_helper(tmp_path):
+    """``write_page``: the folder made, the data first (indented by one, a newline at the end), the
+    page ending in one newline; no data, no JSON; a function for the text runs once the data is written."""
+    from lamella_dev.bench import write_page
+
+    out = tmp_path / "a" / "b"
+    page = write_page(out, "x", "# X\n\nbody\n\n\n", {"k": [1, 2]})
+    assert page == out / "x.md" and page.read_text(encoding="utf-8") == "# X\n\nbody\n"
+    assert (out / "x.json").read_text() == '{\n "k": [\n  1,\n  2\n ]\n}\n'
+    assert write_page(out, "y", "# Y °").read_text(encoding="utf-8") == "# Y °\n" and not (out / "y.json").exists()
+
+    def text():
+        assert (out / "z.json").is_file()
+        return "# Z"
+
+    assert write_page(out, "z", text, []).read_text() == "# Z\n"
+
+
+def test_importing_the_benches_stays_cheap():
+    """Every bench module is imported to register it (by the command too): none may import Blender or
+    the plotting, progress-bar and MaterialX libraries before it runs."""
+    heavy = ("bpy", "_cycles", "matplotlib", "tqdm", "MaterialX", "flip_evaluator")
+    r = subprocess.run([sys.executable, "-c", "import sys, lamella_dev.bench, lamella_dev.cli; "
+                        "lamella_dev.cli.build_parser(); "
+                        f"print([m for m in {heavy!r} if m in sys.modules])"], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr[-2000:]

@@ -9,6 +9,7 @@ Gulbrandsen 2014's eta and k (``lamella.core.metals.artistic_to_complex``). Ever
 what a kind can do; a model that branched on type names would give the new kinds nothing (or
 fail) and these tests would show it."""
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -26,7 +27,13 @@ from lamella.core.layers.schema import FLOAT, Field, layer_kind
 from lamella.core.models import MODELS, UnsupportedStack
 from lamella.core.param_id import ParamId
 
+from lamella_dev import suite
+from lamella_dev.bench import BENCHES, Bench
+from lamella_dev.bench import register as register_bench
+from lamella_dev.bench import unregister as unregister_bench
+
 from . import extension_kinds
+from .extension_kinds import coat_count
 from .test_node_graph import _compare, _directions
 from .test_tracing import assert_graph_is_numpy, random_dirs, trace
 
@@ -81,11 +88,12 @@ def extension():
 def test_registering_adds_the_kinds_and_unregistering_removes_them():
     assert "tinted_lacquer" in COAT_KINDS and "artist_metal" in BASE_KINDS
     assert "translucent" in lobe_kinds.KINDS and "absorbance" in traced_ops.OPS and "split_diffuse" in MODELS
+    assert "coat-count" in BENCHES
     extension_kinds.unregister()
     try:
         assert "tinted_lacquer" not in COAT_KINDS and "artist_metal" not in BASE_KINDS
         assert "translucent" not in lobe_kinds.KINDS and "absorbance" not in traced_ops.OPS
-        assert "split_diffuse" not in MODELS
+        assert "split_diffuse" not in MODELS and "coat-count" not in BENCHES
         assert not hasattr(Tracer(), "absorbance")
         with pytest.raises(StackError, match="tinted_lacquer"):
             lc.Stack.from_dict(PAIRS["lacquer over artist metal"][0])
@@ -274,3 +282,70 @@ def test_the_stochastic_reference_refuses_kinds_it_has_no_walk_for():
     with pytest.raises(ValueError, match="base: the stochastic reference has no walk for 'artist_metal'"):
         reference.albedo(PAIRS["artist metal alone"][0], wi, spp=16)
     assert reference.albedo(PAIRS["artist metal alone"][1], wi, spp=16)[0].shape == (2, 3)
+
+
+# ---------------------------------------------------------------- benchmarks
+def test_a_new_bench_is_a_lamella_bench_command_and_writes_its_page(tmp_path, capsys):
+    """``coat_count`` registered: ``lamella bench`` lists it with its description and runs it with its
+    own option; its page and data come out of ``write_page``; unregistered, the command is gone."""
+    from lamella_dev.cli import main
+
+    assert BENCHES["coat-count"] is coat_count.BENCH
+    with pytest.raises(SystemExit) as e:
+        main(["bench", "--help"])
+    assert e.value.code == 0 and "coat-count" in capsys.readouterr().out
+    assert main(["bench", "list"]) == 0
+    listed = {line.split()[0]: line.split(None, 1)[1] for line in capsys.readouterr().out.splitlines()}
+    assert listed["coat-count"] == coat_count.BENCH.description
+
+    cases = ["gold_coated", "three_coats", "fog_g09_d1"]
+    out = tmp_path / "pages"
+    assert main(["bench", "coat-count", "--cases", ",".join(cases), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    page, data = out / "coat_count.md", out / "coat_count.json"
+    text = page.read_text(encoding="utf-8")
+    assert text.startswith("# Coats per suite stack\n") and text.endswith("|\n")  # one newline at the end
+    assert text in printed and f"wrote {page} and {data}" in printed
+    stacks = {n: suite.load(n) for n in cases}
+    assert json.loads(data.read_text()) == {"stacks": {
+        n: {"coats": len(s.coats), "scattering": sum(max(c.sigma_s) > 0 for c in s.coats)} for n, s in stacks.items()}}
+    assert f"| three_coats | {len(stacks['three_coats'].coats)} | 0 |" in text
+
+    coat_count.unregister()
+    try:
+        assert "coat-count" not in BENCHES
+        with pytest.raises(SystemExit) as e:
+            main(["bench", "coat-count", "--out", str(out)])
+        assert e.value.code == 2 and "invalid choice: 'coat-count'" in capsys.readouterr().err
+        assert main(["bench", "list"]) == 0 and "coat-count" not in capsys.readouterr().out
+    finally:
+        coat_count.register()
+
+
+def test_the_bench_registry_refuses_clashes_and_incomplete_benches():
+    def run(out_dir, args):
+        return out_dir
+
+    with pytest.raises(ValueError, match="'energy' is registered already"):
+        register_bench(Bench("energy", "another energy bench", run))
+    with pytest.raises(ValueError, match="'coat-count' is registered already"):
+        coat_count.register()
+    for bench, message in [(Bench("", "a bench", run), "needs a name"),
+                           (Bench("two words", "a bench", run), "one word"),
+                           (Bench("--out", "a bench", run), "one word"),
+                           (Bench("list", "a bench", run), "the command's own"),
+                           (Bench("mute", "", run), "one line"),
+                           (Bench("wordy", "two\nlines", run), "one line"),
+                           (Bench("idle", "a bench", None), "run is a function"),
+                           (Bench("odd", "a bench", run, arguments="--fast"), "arguments is a function")]:
+        with pytest.raises(ValueError, match=message):
+            register_bench(bench)
+        assert bench.name not in BENCHES
+    with pytest.raises(ValueError, match="takes a Bench"):
+        register_bench(("energy2", "a tuple", run))
+    energy = BENCHES["energy"]
+    unregister_bench(Bench("energy", "another energy bench", run))  # not the one registered: it stays
+    unregister_bench("no-such-bench")
+    assert BENCHES["energy"] is energy
+    with pytest.raises(TypeError):
+        BENCHES["energy"] = Bench("energy", "around the checks", run)  # read only: benches join by register

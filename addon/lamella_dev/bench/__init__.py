@@ -1,15 +1,19 @@
-"""Benchmarks and stored references (pure numpy + the stochastic reference; no bpy)."""
-from pathlib import Path
+"""Benchmarks and stored references (pure numpy + the stochastic reference; no bpy at import).
 
+Every bench module registers its ``Bench`` (``registry``) at its bottom; the imports at the end of
+this file are where the built-in benches join ``lamella bench``."""
+from .page import write_page
+from .paths import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE, REPO
+from .registry import BENCHES, Bench, cases_argument, register, unregister
 
-def _repository() -> Path:
-    """The checkout this package runs from (where the stored references and bench/ live), or the
-    working folder for an installed copy, so that a benchmark never writes into site-packages."""
-    here = Path(__file__).resolve().parents[3]
-    return here if (here / "pyproject.toml").is_file() and (here / "tests").is_dir() else Path.cwd()
+# the built-in benches (each registers itself)
+from . import (  # noqa: E402
+    accuracy, albedo_controls, eevee_closures, eevee_gap, eevee_standins, energy, holdout, image_references, images,
+    linked_tables, lobe_floor, luts_error, materialx, node_cost, osl_cost, pareto, recompile, scene, staging,
+    trapping,
+)
 
-
-REPO = _repository()
-REFERENCE_DIR = REPO / "tests" / "references" / "brdf"  # single-scattering rough interfaces
-REFERENCE_DIR_MULTIPLE = REPO / "tests" / "references" / "brdf_multiple"  # multiple-scattering interfaces
-BENCH_DIR = REPO / "bench"
+__all__ = ["BENCHES", "Bench", "register", "unregister", "cases_argument", "write_page", "BENCH_DIR", "REPO",
+           "REFERENCE_DIR", "REFERENCE_DIR_MULTIPLE", "accuracy", "albedo_controls", "eevee_closures", "eevee_gap",
+           "eevee_standins", "energy", "holdout", "image_references", "images", "linked_tables", "lobe_floor",
+           "luts_error", "materialx", "node_cost", "osl_cost", "pareto", "recompile", "scene", "staging", "trapping"]

@@ -22,7 +22,9 @@ from ..metrics import albedo_error, relative_l1
 from lamella.core.models import MODELS as REGISTRY
 from lamella.core.models import UnsupportedStack
 from lamella.core.stack import Stack
-from . import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
+from .paths import BENCH_DIR, REFERENCE_DIR, REFERENCE_DIR_MULTIPLE
+from .page import write_page
+from .registry import Bench, register
 
 MODELS = (*REGISTRY, "auto")  # every registered model, then auto
 
@@ -247,13 +249,10 @@ def run(ref_dir: Path = REFERENCE_DIR, out_dir: Path = BENCH_DIR, models=MODELS,
         if path.stem not in suite.names():
             rows.extend({**r, "pending": True} for r in evaluate_case(path.stem, load_reference(path.stem, pending_dir),
                                                                       models))
-    out_dir.mkdir(parents=True, exist_ok=True)
-    jpath = out_dir / "accuracy.json"
-    jpath.write_text(json.dumps({"models": list(models), "wi_degrees": list(suite.WI_DEGREES), "rows": rows,
-                                 "rows_multiple": rows_multiple}, indent=1) + "\n")
-    mpath = out_dir / "accuracy.md"
-    mpath.write_text(format_markdown(rows, models, rows_multiple))
-    return mpath, jpath
+    mpath = write_page(out_dir, "accuracy", lambda: format_markdown(rows, models, rows_multiple),
+                       {"models": list(models), "wi_degrees": list(suite.WI_DEGREES), "rows": rows,
+                        "rows_multiple": rows_multiple})
+    return mpath, mpath.with_suffix(".json")
 
 
 def median_table(rows: list[dict], models, wis) -> list[str]:
@@ -389,3 +388,7 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
                          f"{worst['case']} at {worst['wi']:g}° | {len({r['case'] for r in rs})} / {n_cases} |")
         lines.append("")
     return "\n".join(lines)
+
+
+BENCH = register(Bench("accuracy", "every model against the suite's stored BRDF references",
+                       lambda out_dir, args: run(out_dir=out_dir)[0]))

@@ -11,13 +11,14 @@ ratio away from 1 is a term the model misses. Numpy only, a few seconds.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 
 from lamella.core import Stack, api
 from .. import reference, suite
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]}
 ABSORPTIONS = ((0.0, 0.0, 0.0), (0.2, 0.8, 0.8), (1.0, 2.0, 4.0))  # 1 / length, over thickness 0.5
@@ -107,10 +108,11 @@ def format_markdown(data: list[dict]) -> str:
 
 def run(out_dir: Path = BENCH_DIR) -> Path:
     data = rows()
-    (out_dir / "albedo_controls.json").write_text(json.dumps(data, indent=1))
-    path = out_dir / "albedo_controls.md"
-    path.write_text(format_markdown(data))
-    return path
+    return write_page(out_dir, "albedo_controls", lambda: format_markdown(data), data)
 
+
+BENCH = register(Bench("albedo-controls",
+                       "coated gold one factor at a time: the model's albedo over the energy-conserving walk's",
+                       lambda out_dir, args: run(out_dir)))
 
 __all__ = ["controls", "format_markdown", "rows", "run"]

@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 RES, SPP = 64, 32
 KEEP = 3  # the closure count EEVEE Next was reported to evaluate per pixel
@@ -200,6 +202,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
     keys = ("eevee_all", "eevee_merged", "eevee_dropped", "cycles_merged", "cycles_dropped")
     mean = {k: float(np.mean([r[k] for r in res["rules"]])) for k in keys}
     md.append("| **mean** | | " + " | ".join(f"{mean[k]:.3f}" for k in keys) + " |")
-    out = Path(out_dir) / "eevee_closures.md"
-    out.write_text("\n".join(md) + "\n")
-    return out
+    return write_page(out_dir, "eevee_closures", "\n".join(md))
+
+
+BENCH = register(Bench("eevee-closures", "sums of lobes in EEVEE and Cycles, and rules that merge or drop lobes",
+                       lambda out_dir, args: run(out_dir)))

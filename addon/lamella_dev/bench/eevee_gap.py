@@ -29,15 +29,16 @@ the relative L1 (sum |e - c| / sum c), which weighs pixels by their light.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
 from .. import suite
-from . import BENCH_DIR
+from .paths import BENCH_DIR
 from .eevee_closures import lobe_sum_material
+from .page import write_page
+from .registry import Bench, cases_argument, register
 
 SUN_DIR = (0.35, -0.75, 0.56)  # normalised by the scene builder
 RES, SPP = 96, 64
@@ -177,12 +178,7 @@ def run(out_dir: Path = BENCH_DIR, cases=None, progress: bool = True) -> Path:
     sweep = sweep_rows()
     rows = [stack_row(n) for n in tqdm(cases, desc="eevee-gap", disable=not progress)]
     data = {"settings": {"res": RES, "spp": SPP, "sun_dir": SUN_DIR, "floor": FLOOR}, "sweep": sweep, "stacks": rows}
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "eevee_gap.json").write_text(json.dumps(data, indent=1) + "\n")
-    path = out_dir / "eevee_gap.md"
-    path.write_text(format_markdown(data))
-    return path
+    return write_page(out_dir, "eevee_gap", lambda: format_markdown(data), data)
 
 
 def _pct(x) -> str:
@@ -231,3 +227,8 @@ def format_markdown(data: dict) -> str:
         lines.append(f"| {r['stack']} | {_three(o)} | {_three(p)} | {_three(m)} | "
                      f"{o['rel_l1'] / max(m['rel_l1'], 1e-9):.2f} |")
     return "\n".join(lines) + "\n"
+
+
+BENCH = register(Bench("eevee-gap",
+                       "EEVEE against Cycles per isotropic suite stack, with controls that tell whose the gap is",
+                       lambda out_dir, args: run(out_dir, cases=args.cases or None), cases_argument))

@@ -18,7 +18,9 @@ from lamella.core import lobe_kinds
 from .. import suite
 from lamella.core.api import _run
 from lamella.core.backends.numpy_ops import NumpyOps
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 
 def _candidates(ops, lobe, wi):
@@ -94,6 +96,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
     best = min(mean.values())
     lines.append("| **mean** | " + " | ".join(f"**{mean[c]:.3f}**" if mean[c] == best else f"{mean[c]:.3f}"
                                               for c in cands) + " |")
-    out = Path(out_dir) / "eevee_anisotropy.md"
-    out.write_text("\n".join(lines) + "\n")
-    return out
+    return write_page(out_dir, "eevee_anisotropy", "\n".join(lines))
+
+
+BENCH = register(Bench("eevee-anisotropy", "the isotropic stand-ins for anisotropic lobes in EEVEE",
+                       lambda out_dir, args: run(out_dir)))

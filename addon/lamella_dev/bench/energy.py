@@ -12,7 +12,6 @@ a lobe of alpha 0.02 (``QUADRATURE``).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,9 @@ import numpy as np
 from lamella.core import api, lobe_kinds
 from .. import suite
 from lamella.core.models import UnsupportedStack
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 QUADRATURE = (160, 240)  # (n_theta, n_phi) of the half-vector grid
 ANGLES = (0.0, 30.0, 45.0, 60.0, 75.0)
@@ -58,8 +59,10 @@ def rows(cases=None, models=("auto",), angles=ANGLES, progress=print) -> list[di
 
 def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
     rs = rows(progress=progress)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "energy.json").write_text(json.dumps({"quadrature": QUADRATURE, "rows": rs}, indent=1) + "\n")
+    return write_page(out_dir, "energy", lambda: _markdown(rs), {"quadrature": QUADRATURE, "rows": rs})
+
+
+def _markdown(rs: list[dict]) -> str:
     bad = [r for r in rs if abs(r["ratio"] - 1.0) > TOLERANCE]
     md = ["# Energy given against energy delivered", "",
           "`lamella bench energy`: for every suite stack under `auto`, the integral of `evaluate` over the upper",
@@ -74,6 +77,8 @@ def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
         md.append(f"| {name} | " + " | ".join(
             (f"**{cells[a]:.3f}**" if abs(cells[a] - 1.0) > TOLERANCE else f"{cells[a]:.3f}") if a in cells else ""
             for a in ANGLES) + " |")
-    path = out_dir / "energy.md"
-    path.write_text("\n".join(md) + "\n")
-    return path
+    return "\n".join(md)
+
+
+BENCH = register(Bench("energy", "every model's integral of evaluate against the lobe weights it reports",
+                       lambda out_dir, args: run(out_dir)))

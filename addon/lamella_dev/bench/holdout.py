@@ -24,8 +24,10 @@ import numpy as np
 from lamella.core import metals
 from .. import suite
 from lamella.core.stack import Stack
-from . import BENCH_DIR, REPO
+from .paths import BENCH_DIR, REPO
 from .accuracy import MODELS, _angle_arrays, evaluate_case, load_reference
+from .page import write_page
+from .registry import Bench, register
 
 HOLDOUT_DIR = REPO / "tests" / "references" / "brdf_holdout"
 SEED = 20261126
@@ -140,10 +142,13 @@ def run(ref_dir: Path = HOLDOUT_DIR, out_dir: Path = BENCH_DIR, models=MODELS) -
     for name, ref in refs.items():
         stack = Stack.from_dict(ref["meta"]["stack"])
         rows.extend(evaluate_case(name, ref, models, stack=stack))
+    mpath = write_page(out_dir, "holdout", lambda: _markdown(refs, rows, models),
+                       {"models": list(models), "rows": rows})
+    return mpath, mpath.with_suffix(".json")
+
+
+def _markdown(refs: dict, rows: list[dict], models) -> str:
     wis = sorted({r["wi"] for r in rows})
-    out_dir.mkdir(parents=True, exist_ok=True)
-    jpath = out_dir / "holdout.json"
-    jpath.write_text(json.dumps({"models": list(models), "rows": rows}, indent=1) + "\n")
     lines = ["# The models on stacks drawn at random (the hold-out set)", "",
              f"`lamella bench holdout`: {len(refs)} stacks drawn once from the ranges artists use "
              f"(`lamella_dev.bench.holdout.draw`, seed {SEED}), never used to tune a model, against "
@@ -163,6 +168,20 @@ def run(ref_dir: Path = HOLDOUT_DIR, out_dir: Path = BENCH_DIR, models=MODELS) -
             cells.append(f"{r['rel_l1']:.3f} / {r['albedo_err']:.3f} (noise {r['ref_noise']:.3f})"
                          if r and "rel_l1" in r else "—")
         lines.append(f"| {name}: {describe(stack)} | " + " | ".join(cells) + " |")
-    mpath = out_dir / "holdout.md"
-    mpath.write_text("\n".join(lines) + "\n")
-    return mpath, jpath
+    return "\n".join(lines)
+
+
+def _arguments(parser) -> None:
+    parser.add_argument("--references", action="store_true",
+                        help="draw the hold-out stacks and compute their energy-conserving references first "
+                             "(about 30 minutes of CPU)")
+
+
+def _bench(out_dir: Path, args) -> Path:
+    if args.references:
+        compute_references(draw())
+    return run(out_dir=out_dir)[0]
+
+
+BENCH = register(Bench("holdout", "every model on stacks drawn at random once and never tuned on",
+                       _bench, _arguments))

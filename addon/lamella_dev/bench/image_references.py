@@ -17,7 +17,9 @@ import numpy as np
 
 from .. import suite
 from lamella.core.exr import read_rgba, write_rgba
-from . import REPO
+from .paths import REPO
+from .page import write_page
+from .registry import Bench, register
 
 IMAGE_REFERENCE_DIR = REPO / "tests" / "references" / "images"
 IMAGE_REFERENCE_DIR_MULTIPLE = REPO / "tests" / "references" / "images_multiple"  # energy-conserving interfaces
@@ -131,7 +133,7 @@ def thickness_study(cases=("tinted_varnish", "three_coats"), thicknesses=(0.002,
     default thickness on 8x8-pixel tiles (per-pixel noise divided by 8) and by mean radiance."""
     from ..reference_scene import SHELL_THICKNESS
     from ..image_metrics import block_rmse, mean_bias
-    from . import BENCH_DIR
+    from .paths import BENCH_DIR
 
     out_dir = Path(out_dir or BENCH_DIR)
     rows = []
@@ -159,7 +161,8 @@ def thickness_study(cases=("tinted_varnish", "three_coats"), thicknesses=(0.002,
         rgb = ", ".join(f"{x:.4f}" for x in r["mean_radiance"])
         lines.append(f"| {r['case']} | {r['thickness']} | {rgb} | {r['bias_vs_default']:+.4f} | "
                      f"{r['rmse_8px_vs_default']:.4f} | {r['noise_rmse']:.4f} |")
-    out = out_dir / "reference_shells.md"
-    out.write_text("\n".join(lines) + "\n")
-    (out_dir / "reference_shells.json").write_text(json.dumps(rows, indent=1) + "\n")
-    return out
+    return write_page(out_dir, "reference_shells", "\n".join(lines), rows)
+
+
+BENCH = register(Bench("shells", "effect of the nested-sphere reference's shell thickness",
+                       lambda out_dir, args: thickness_study(out_dir=out_dir)))

@@ -9,7 +9,6 @@ settings here (``RES``, ``SPP``, seed 0) are the ones the regression test re-ren
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +17,10 @@ from .. import suite
 from lamella.core.exr import read_rgba
 from ..image_metrics import delta_e00_map, display_srgb, image_errors
 from ..plots import save_figure
-from . import BENCH_DIR
+from .paths import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
+from .page import write_page
+from .registry import Bench, cases_argument, register
 
 SPP = 64
 BUDGET = "auto"  # the lobe budget of our shaders here: the default an artist gets
@@ -109,12 +110,9 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
         captions[f"{name}: reference"] = f"{index['cases'][name]['spp']} spp nested spheres"
     contact_sheet(sheet, Path(out_dir) / stem / "contact_sheet.png", captions, ncols=4,
                   title="Generated OSL shader (ours) next to the brute-force reference, canonical sphere-env")
-    jpath = Path(out_dir) / f"{stem}.json"
-    jpath.write_text(json.dumps({"spp": spp, "res": RES, "budget": BUDGET, "interfaces": interfaces, "rows": rows},
-                                indent=1) + "\n")
-    mpath = Path(out_dir) / f"{stem}.md"
-    mpath.write_text(format_markdown(rows, index, spp, interfaces))
-    return mpath, jpath
+    mpath = write_page(out_dir, stem, lambda: format_markdown(rows, index, spp, interfaces),
+                       {"spp": spp, "res": RES, "budget": BUDGET, "interfaces": interfaces, "rows": rows})
+    return mpath, mpath.with_suffix(".json")
 
 
 def format_markdown(rows: list[dict], index: dict, spp: int, interfaces: str = "single") -> str:
@@ -173,3 +171,16 @@ def format_markdown(rows: list[dict], index: dict, spp: int, interfaces: str = "
                      f"{mean('delta_e00'):.2f} | {mean('flip'):.3f} |")
     lines += ["", f"Comparison images (each engine | reference | ΔE00 maps): `bench/{'images_multiple' if energy else 'images'}/<case>.png`.", ""]
     return "\n".join(lines)
+
+
+def _arguments(parser) -> None:
+    cases_argument(parser)
+    parser.add_argument("--interfaces", choices=["single", "multiple"], default="single",
+                        help="against the single-scattering references (bench/images.md) or the energy-conserving "
+                             "ones (tests/references/images_multiple, bench/images_multiple.md)")
+
+
+BENCH = register(Bench("images",
+                       "each suite stack's shader, node group and Principled stand-in against the image references",
+                       lambda out_dir, args: run(args.cases or None, out_dir=out_dir, interfaces=args.interfaces)[0],
+                       _arguments))

@@ -12,7 +12,6 @@ node plan, and whether ``emit_plan`` picks the tables for that stack. Numpy only
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -24,7 +23,9 @@ from lamella.core.backends.ir import staging
 from lamella.core.backends.evaluate import evaluate_staged
 from lamella.core.backends.ir.live_axes import MAX_AXES, N_AXIS, N_AXIS_WIDE
 from lamella.core.param_id import AXES, COLOUR_CHANNELS
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 ANGLES = (0.0, 30.0, 60.0, 80.0)
 DRAWS = 12
@@ -109,7 +110,10 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
 
 def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
     data = rows(progress=progress)
-    (out_dir / "linked_tables.json").write_text(json.dumps(data, indent=1))
+    return write_page(out_dir, "linked_tables", lambda: _markdown(data), data)
+
+
+def _markdown(data: list[dict]) -> str:
     md = [
         "# Tables over linked parameters (the node group's fallback for Cycles without OSL)",
         "",
@@ -137,9 +141,11 @@ def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
     md += ["", "The largest errors are narrow lobes: a coat roughness r near 0.1 under a rougher coat, whose lobe "
            "width is a hyperbola in r that the axis resolves only at its nodes. The OSL shader traces the linked "
            "part exactly; Cycles with OSL on renders that.", ""]
-    path = out_dir / "linked_tables.md"
-    path.write_text("\n".join(md))
-    return path
+    return "\n".join(md)
 
+
+BENCH = register(Bench("linked-tables",
+                       "the node group's tables over linked parameters against the model, their size and staging time",
+                       lambda out_dir, args: run(out_dir)))
 
 __all__ = ["rows", "run", "with_values"]

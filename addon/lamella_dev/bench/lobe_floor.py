@@ -20,7 +20,6 @@ the comparison isolates shape from the grid's quadrature.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +29,10 @@ from .. import suite
 from lamella.core.backends.numpy_ops import NumpyOps
 from ..metrics import relative_l1
 from lamella.core.models.ggx import ggx_lobe_cos
-from . import BENCH_DIR, REFERENCE_DIR_MULTIPLE
+from .paths import BENCH_DIR, REFERENCE_DIR_MULTIPLE
 from .accuracy import load_reference, reference_noise
+from .page import write_page
+from .registry import Bench, register
 
 ALPHAS = np.geomspace(0.01, 1.0, 81)  # the scan of the base lobe's roughness
 PAIR_ALPHAS = np.geomspace(0.01, 1.0, 41)  # the two lobes' roughnesses (every pair)
@@ -142,7 +143,10 @@ def measure() -> list[dict]:
 
 def run(out_dir: Path = BENCH_DIR) -> Path:
     rows = measure()
-    (out_dir / "lobe_floor.json").write_text(json.dumps(rows, indent=1))
+    return write_page(out_dir, "lobe_floor", lambda: _markdown(rows), rows)
+
+
+def _markdown(rows: list[dict]) -> str:
     angles = sorted({r["wi"] for r in rows})
     md = ["# One GGX lobe per path: the floor of its shape", "",
           "`lamella bench lobe-floor`: the suite's stacks of one isotropic coat over an isotropic conductor, "
@@ -173,6 +177,9 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
                   f"{np.median([r['rel_l1_floor_two'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_floor_tilted'] for r in sel]):.3f} | "
                   f"{np.median([r['rel_l1_floor_aniso'] for r in sel]):.3f} | {np.median([r['ref_noise'] for r in sel]):.3f} |")
-    out = out_dir / "lobe_floor.md"
-    out.write_text("\n".join(md) + "\n")
-    return out
+    return "\n".join(md)
+
+
+BENCH = register(Bench("lobe-floor",
+                       "one coat over a conductor: the error left if the base lobe's roughness and energy were exact",
+                       lambda out_dir, args: run(out_dir)))

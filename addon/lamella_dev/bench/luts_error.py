@@ -2,7 +2,6 @@
 against direct numerical integration (the generator's quadrature at a higher resolution)."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,8 @@ from lamella.core.models.fresnel import fresnel_conductor, fresnel_dielectric
 from lamella.core.models.rgb import RGB
 
 from .. import luts_build
+from .page import write_page
+from .registry import Bench, register
 
 METALS = {"gold": ((0.143, 0.374, 1.442), (3.983, 2.385, 1.603)),
           "aluminium": ((1.657, 0.880, 0.521), (9.224, 6.270, 4.837)),
@@ -75,8 +76,8 @@ def run(out_dir: Path) -> Path:
     table_of = {"gd": "ggx_albedo", "fgd_dielectric": "fresnel_hat_delta", "fgd_conductor": "fresnel_hat_delta", "tir": "tir"}
     for k, s in stats.items():
         lines.append(f"| {k} | `{table_of[k]}` | {sizes[table_of[k]]} | {s['mean']:.2e} | {s['p95']:.2e} | {s['max']:.2e} |")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    p = out_dir / "luts.md"
-    p.write_text("\n".join(lines) + "\n")
-    (out_dir / "luts.json").write_text(json.dumps(stats, indent=1) + "\n")
-    return p
+    return write_page(out_dir, "luts", "\n".join(lines), stats)
+
+
+BENCH = register(Bench("luts", "error of the pre-integrated tables between their nodes",
+                       lambda out_dir, args: run(out_dir)))

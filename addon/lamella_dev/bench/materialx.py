@@ -24,7 +24,6 @@ Writes ``bench/materialx.md``, ``bench/materialx.json`` and ``bench/materialx_sh
 from __future__ import annotations
 
 import dataclasses
-import json
 import re
 import time
 from collections import Counter
@@ -33,8 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import suite
-from . import BENCH_DIR, REPO
+from .paths import BENCH_DIR, REPO
 from .image_references import sphere_pixels
+from .page import write_page
+from .registry import Bench, register
 
 RES, SPP = 128, 64  # as bench/images.md, whose references these are
 CASES = ("gold_coated", "varnished_wood", "tinted_varnish", "coat_over_brushed", "rotated_30", "three_coats",
@@ -190,13 +191,9 @@ def run(out_dir: Path = BENCH_DIR, res: int = RES, spp: int = SPP) -> Path:
         print(f"{name}: rendered ({', '.join(f'{k} {v[1]:.1f} s' for k, v in renders.items())})", flush=True)
     png = contact_sheet(sheet, out_dir / "materialx_sheet.png", captions, ncols=4,
                         title=f"MaterialX export against Lamella's shader, sphere-env, {res} px, {spp} spp, seed 0")
-    js = out_dir / "materialx.json"
-    js.write_text(json.dumps({"command": "lamella bench materialx", "res": res, "spp": spp,
-                              "documents": docs["rows"], "warning_kinds": dict(docs["warnings"]),
-                              "cases": results}, indent=1) + "\n")
-    md = out_dir / "materialx.md"
-    md.write_text(_markdown(docs, results, res, spp, t_docs, png.name))
-    return md
+    return write_page(out_dir, "materialx", lambda: _markdown(docs, results, res, spp, t_docs, png.name),
+                      {"command": "lamella bench materialx", "res": res, "spp": spp, "documents": docs["rows"],
+                       "warning_kinds": dict(docs["warnings"]), "cases": results})
 
 
 def _markdown(docs, results, res, spp, t_docs, png_name) -> str:
@@ -269,3 +266,7 @@ def _markdown(docs, results, res, spp, t_docs, png_name) -> str:
         op = e["warnings"]["openpbr"]
         lines.append(f"- **{name}** (OpenPBR): " + (op if isinstance(op, str) else ("; ".join(op) or "nothing")))
     return "\n".join(lines) + "\n"
+
+
+BENCH = register(Bench("materialx", "the MaterialX export validated, compiled and rendered beside Lamella's shader",
+                       lambda out_dir, args: run(out_dir)))

@@ -12,8 +12,10 @@ import re
 import time
 from pathlib import Path
 
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
 from .recompile import STACKS, _stack
+from .registry import Bench, register
 
 RES, SPP = 64, 16
 _ERRORS = re.compile(r"(out of SVM stack space|Uniform block \w+ too big \(\d+/\d+\))")
@@ -157,6 +159,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         md.append(f"| {r['stack']} | {', '.join(r['live'])} | {r['linked_part']} | {r['nodes']} | {r['closures']} / {r['lobes']} | "
                   f"{r['live_values']} | {'; '.join(r['cycles-nodes errors']) or 'ok'} | {r['cycles-osl']:.4f} | "
                   f"{r['cycles-nodes']:.4f} |")
-    path = Path(out_dir) / "nodes.md"
-    path.write_text("\n".join(md) + "\n")
-    return path
+    return write_page(out_dir, "nodes", "\n".join(md))
+
+
+BENCH = register(Bench("nodes", "node group size, build time, Cycles-without-OSL and EEVEE render cost",
+                       lambda out_dir, args: run(out_dir)))

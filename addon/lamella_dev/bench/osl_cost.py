@@ -19,7 +19,9 @@ import numpy as np
 
 from .. import suite
 from lamella.core.stack import Stack
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 RES, SPP, REPEATS = 96, 64, 3
 
@@ -112,12 +114,9 @@ def run(out_dir: Path = BENCH_DIR, repeats: int = REPEATS, progress=print) -> tu
         row["ratio_to_principled"] = row["median_seconds"] / row["median_principled_seconds"]
     for row in rows:
         row["ratio_to_one_coat"] = row["median_seconds"] / rows[0]["median_seconds"]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    jpath = out_dir / "osl_cost.json"
-    jpath.write_text(json.dumps({"res": RES, "spp": SPP, "repeats": repeats, "rows": rows}, indent=1) + "\n")
-    mpath = out_dir / "osl_cost.md"
-    mpath.write_text(format_markdown(rows, repeats))
-    return mpath, jpath
+    mpath = write_page(out_dir, "osl_cost", lambda: format_markdown(rows, repeats),
+                       {"res": RES, "spp": SPP, "repeats": repeats, "rows": rows})
+    return mpath, mpath.with_suffix(".json")
 
 
 def format_markdown(rows, repeats) -> str:
@@ -139,3 +138,7 @@ def format_markdown(rows, repeats) -> str:
                      f"{r['ratio_to_principled']:.2f} | {r['ratio_to_one_coat']:.2f} |")
     lines.append("")
     return "\n".join(lines)
+
+
+BENCH = register(Bench("osl-cost", "shader size, texture reads and render time per stack feature (traced OSL)",
+                       lambda out_dir, args: run(out_dir)[0]))

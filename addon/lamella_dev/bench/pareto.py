@@ -39,8 +39,10 @@ import numpy as np
 
 from .. import suite
 from lamella.core.stack import Stack
-from . import BENCH_DIR
+from .paths import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
+from .page import write_page
+from .registry import Bench, cases_argument, register
 
 REFERENCE_SEED = 7919  # far from the seeds of the stored references' chunks (0, 1, ...)
 # The pixels the errors are taken over, recorded with the measurements: the sphere's
@@ -258,14 +260,7 @@ def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bo
                          "quick": quick, "pixels": PIXELS},
             "stacks": rows, "coats": coats, "depths": depths,
             "equal_time": [dict(stack=r["stack"], **et) for r in rows if (et := equal_time(r)) is not None]}
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    stem = "pareto_quick" if quick else "pareto"
-    (out_dir / f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n")
-    plots = write_plots(data, out_dir / "plots", stem)
-    path = out_dir / f"{stem}.md"
-    path.write_text(format_markdown(data, {k: p.relative_to(out_dir).as_posix() for k, p in plots.items()}))
-    return path
+    return _write(Path(out_dir), "pareto_quick" if quick else "pareto", data)
 
 
 def rewrite(out_dir: Path = BENCH_DIR, quick: bool = False) -> Path:
@@ -275,11 +270,16 @@ def rewrite(out_dir: Path = BENCH_DIR, quick: bool = False) -> Path:
     stem = "pareto_quick" if quick else "pareto"
     data = json.loads((out_dir / f"{stem}.json").read_text())
     data["equal_time"] = [dict(stack=r["stack"], **et) for r in data["stacks"] if (et := equal_time(r)) is not None]
-    (out_dir / f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n")
-    plots = write_plots(data, out_dir / "plots", stem)
-    path = out_dir / f"{stem}.md"
-    path.write_text(format_markdown(data, {k: p.relative_to(out_dir).as_posix() for k, p in plots.items()}))
-    return path
+    return _write(out_dir, stem, data)
+
+
+def _write(out_dir: Path, stem: str, data: dict) -> Path:
+    """The data, then the plots (``out_dir/plots``) and the page."""
+    def page() -> str:
+        plots = write_plots(data, out_dir / "plots", stem)
+        return format_markdown(data, {k: p.relative_to(out_dir).as_posix() for k, p in plots.items()})
+
+    return write_page(out_dir, stem, page, data)
 
 
 def write_plots(data: dict, plot_dir: Path, stem: str) -> dict:
@@ -391,3 +391,19 @@ def format_markdown(data: dict, plots: dict) -> str:
             lines.append(f"| {fmt.format(r['x'])} | {r['closures']} | "
                          + " | ".join(f"{r[v.label]:.2f}" for v in COST_VARIANTS) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _arguments(parser) -> None:
+    cases_argument(parser)
+    parser.add_argument("--quick", action="store_true", help="one scattering stack, 32 px, two sample counts")
+    parser.add_argument("--replot", action="store_true", help="tables and plots again from the stored pareto.json")
+
+
+def _bench(out_dir: Path, args) -> Path:
+    if args.replot:
+        return rewrite(out_dir, quick=args.quick)
+    return run(out_dir, quick=args.quick, cases=args.cases or None)
+
+
+BENCH = register(Bench("pareto", "run time against error for every way a stack renders; cost against stack size",
+                       _bench, _arguments))

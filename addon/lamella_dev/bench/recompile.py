@@ -18,7 +18,9 @@ from pathlib import Path
 
 from .. import suite
 from lamella.core.stack import MAX_COATS
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 REPEATS = 8
 STACKS = (("1 coat", "gold_coated"), ("4 coats", "four_coats"), ("4 coats + medium", None), ("8 coats + media", None))
@@ -135,6 +137,8 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
                   f"{settled * 1e3:.0f} | "
                   f"{insp * 1e3:.0f} | {statistics.median(s_eevee) * 1e3:.0f}, {s_eevee[0] * 1e3:.0f} | "
                   f"{statistics.median(s_osl) * 1e3:.0f}, {s_osl[0] * 1e3:.0f} |")
-    path = Path(out_dir) / "recompile.md"
-    path.write_text("\n".join(md) + "\n")
-    return path
+    return write_page(out_dir, "recompile", "\n".join(md))
+
+
+BENCH = register(Bench("recompile", "edit-to-updated-material latency of the extension, per stack size",
+                       lambda out_dir, args: run(out_dir)))

@@ -28,7 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import BENCH_DIR
+from ..arguments import count
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 COUNT = 200
 RES, SPP = 160, 16
@@ -182,11 +185,7 @@ def measure(count: int = COUNT, progress=print) -> dict:
 
 def run(out_dir: Path = BENCH_DIR, count: int = COUNT, progress=print) -> Path:
     data = measure(count, progress)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "scene.json").write_text(json.dumps(data, indent=1) + "\n")
-    path = out_dir / "scene.md"
-    path.write_text(format_markdown(data))
-    return path
+    return write_page(out_dir, "scene", lambda: format_markdown(data), data)
 
 
 def format_markdown(d: dict) -> str:
@@ -219,3 +218,13 @@ def format_markdown(d: dict) -> str:
         "Targets: first frame within 1.5x Principled's in each engine; under 30 kB per untextured material.",
     ]
     return "\n".join(lines) + "\n"
+
+
+def _arguments(parser) -> None:
+    parser.add_argument("--count", type=count("--count"), default=COUNT,
+                        help=f"how many objects and materials (default {COUNT})")
+
+
+BENCH = register(Bench("scene",
+                       "a production-sized scene against the Principled BSDF: apply, edit, file size, first frames",
+                       lambda out_dir, args: run(out_dir, count=args.count), _arguments))

@@ -17,7 +17,6 @@ Two parts, written to ``bench/staging.md`` (and ``staging.json``):
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -27,7 +26,9 @@ from lamella.core import api
 from .. import suite
 from lamella.core.backends.ir import lobe_budget, staging
 from lamella.core.backends.evaluate import evaluate_staged
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
+from .registry import Bench, register
 
 ANGLES = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 75.0, 80.0, 85.0)
 AZIMUTHS = (0.0, 0.37, 1.3, 2.9, 4.4)
@@ -176,11 +177,7 @@ def run(out_dir: Path = BENCH_DIR, progress=print, renders: bool = True) -> Path
     data = {"accuracy": accuracy_rows(progress), "budget": budget_rows(progress)}
     if renders:
         data["cost"] = cost_rows(progress=progress)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "staging.json").write_text(json.dumps(data, indent=1) + "\n")
-    path = out_dir / "staging.md"
-    path.write_text(format_markdown(data))
-    return path
+    return write_page(out_dir, "staging", lambda: format_markdown(data), data)
 
 
 def format_markdown(data) -> str:
@@ -226,3 +223,8 @@ def format_markdown(data) -> str:
                 lines.append(f"| {v} | {r['first_seconds'][v]:.2f} | {s:.2f} | {r['x_principled'][v]:.2f} |")
             lines.append("")
     return "\n".join(lines) + "\n"
+
+
+BENCH = register(Bench("staging",
+                       "the staged shader against the traced model, the lobe budget's merge rules, render cost",
+                       lambda out_dir, args: run(out_dir)))

@@ -52,7 +52,8 @@ from lamella.core.layers import BASE_KINDS
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
 from lamella.core.models import UnsupportedStack
 from lamella.core.stack import MAX_COATS, Stack
-from . import BENCH_DIR
+from .paths import BENCH_DIR
+from .page import write_page
 
 EDGE_P = 0.3  # probability that a field takes one of its edge values
 # Rounding: an energy is a chain of up to ~50 operations over values near 1, which the inter-
@@ -500,9 +501,11 @@ def soak_ok(result: dict) -> bool:
 
 # ---------------------------------------------------------------- the report
 def write_report(out: Path, stacks: dict, grid: list | None, soaked: dict | None, command: str) -> Path:
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "stress.json").write_text(json.dumps({"stacks": stacks, "grid": grid, "soak": soaked}, indent=1))
+    return write_page(out, "stress", lambda: _markdown(stacks, grid, soaked, command),
+                      {"stacks": stacks, "grid": grid, "soak": soaked})
+
+
+def _markdown(stacks: dict, grid: list | None, soaked: dict | None, command: str) -> str:
     lines = ["# Numerical stress", "", f"`{command}` (this machine). See `lamella_dev/bench/stress.py` for what is checked.", "",
              "## Random stacks", "",
              f"{stacks['stacks']:,} stacks over the schema's whole range, edges weighted ({EDGE_P:.0%} of fields at an "
@@ -540,9 +543,7 @@ def write_report(out: Path, stacks: dict, grid: list | None, soaked: dict | None
         for x in soaked["samples"]:
             lines.append(f"| {x['edit']} | {x['texts']} | {x['images']} | {x['node_groups']} ({x['unused_groups']}) | "
                          f"{x['rss_mb']:.0f} | {x['file_mb']:.2f} |")
-    md = out / "stress.md"
-    md.write_text("\n".join(lines) + "\n")
-    return md
+    return "\n".join(lines)
 
 
 def run(out=BENCH_DIR, quick: bool = False, stacks: int | None = None, blender: bool = True, progress: bool = True):

@@ -10,12 +10,13 @@ TIR term), so they let it out too soon.
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from lamella.core import api
 from .. import reference, suite
 from lamella.core.stack import Stack
+from .page import write_page
+from .registry import Bench, register
 
 MODELS = ("yamaguchi2019", "tm6", "endf")
 ANGLES = (0.0, 60.0)
@@ -56,9 +57,10 @@ def run(out_dir: Path, spp: int = 1 << 18, seed: int = 3) -> Path:
         lines.append(f"| {r['variant']} | {r['wi']:g}° | {r['reference'][0]:.3f} ± {r['stderr'][0]:.3f} | "
                      + " | ".join(f"{r[m][0]:.3f}" for m in MODELS) + " |")
     lines += ["", (__doc__ or "").split("\n\n", 1)[1].strip(), ""]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "trapping.json").write_text(json.dumps(rows, indent=1) + "\n")
-    md = out_dir / "trapping.md"
-    md.write_text("\n".join(lines))
-    return md
+    return write_page(out_dir, "trapping", "\n".join(lines), rows)
+
+
+BENCH = register(Bench("trapping",
+                       "one coat over gold under rough interfaces: the models' albedo against the reference",
+                       lambda out_dir, args: run(out_dir)))
 

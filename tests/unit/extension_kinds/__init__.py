@@ -1,12 +1,14 @@
 """Extensions written the way a new kind joins Lamella, one module each, for the contract tests
 (``tests/unit/test_extension_contract.py``, ``tests/blender/test_extension_contract.py``): a
 traced operation (``absorbance``), a coat kind that uses it (``tinted_lacquer``), a base kind
-(``artist_metal``), a lobe kind (``translucent``) and a model that emits it (``split_diffuse``). Each has ``register()`` and
+(``artist_metal``), a lobe kind (``translucent``), a model that emits it (``split_diffuse``) and a
+benchmark (``coat_count``, ``lamella bench coat-count``). Each has ``register()`` and
 ``unregister()``; nothing registers on import, so the rest of the suite never sees them."""
 
-from . import absorbance, artist_metal, split_diffuse, tinted_lacquer, translucent
+from . import absorbance, artist_metal, coat_count, split_diffuse, tinted_lacquer, translucent
 
-MODULES = (absorbance, tinted_lacquer, artist_metal, translucent, split_diffuse)  # in the order they register
+# in the order they register
+MODULES = (absorbance, tinted_lacquer, artist_metal, translucent, split_diffuse, coat_count)
 
 
 def register():
