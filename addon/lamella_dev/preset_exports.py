@@ -370,8 +370,8 @@ def node_groups_readme(manifest: dict) -> str:
         f"`{LIBRARY_FILE}` holds one node group per preset, each marked as an asset (catalogs in "
         f"`{CATALOG_FILE}`, with a preview). Use it either way:",
         "",
-        "- **Asset library**: Preferences > File Paths > Asset Libraries, add this folder; the groups show "
-        "in the Shader Editor's asset shelf and the Asset Browser (Lamella/Presets, Lamella/Paper Figures).",
+        "- **Asset library**: Preferences > File Paths > Asset Libraries, add this folder; drag a group from "
+        "the Asset Browser (catalogs Lamella/Presets, Lamella/Paper Figures) into the Shader Editor.",
         f"- **Append**: File > Append, `{LIBRARY_FILE}` > NodeTree > the group.",
         "",
         "Then, in a material: add the group node and link its **BSDF** output into the Material Output's "
