@@ -1,5 +1,5 @@
 """The `lamella` command (docs/design.md): lobes, plot, luts, references, bench, demo, render, export-osl,
-apply, stack-format.
+export-presets, apply, stack-format.
 
 Every stack argument is a JSON file (or a suite case name); a bad stack prints the StackError
 (which names the layer and field) and exits with status 2.
@@ -214,6 +214,26 @@ def cmd_export_osl(a) -> int:
     return 0
 
 
+def cmd_export_presets(a) -> int:
+    """Write the repository's generated folders from the built-in presets: ``osl/`` (every preset's
+    OSL bundle for both view targets) and ``node_groups/`` (every preset's Lamella node as a node
+    group in an asset library that renders without the extension, built by the oldest supported
+    Blender's bpy: ``--blender-python``); ``--only`` one of them (``lamella_dev.preset_exports``)."""
+    from . import preset_exports
+
+    if a.only in (None, "osl"):
+        shaders = preset_exports.write_osl(Path(a.osl_out) if a.osl_out else preset_exports.OSL_DIR)
+        print(f"wrote {len(shaders)} shaders and their READMEs into {shaders[0].parents[2]}")
+    if a.only in (None, "node-groups"):
+        out = Path(a.node_groups_out) if a.node_groups_out else preset_exports.NODE_GROUPS_DIR
+        try:
+            path = preset_exports.write_node_groups(out, a.blender_python, previews=not a.no_previews)
+        except (FileNotFoundError, RuntimeError) as e:
+            raise _fail(f"export-presets: {e}") from None
+        print(f"wrote {path} ({path.stat().st_size // 1024} kB) and its catalogs, manifest and README")
+    return 0
+
+
 def cmd_export_mtlx(a) -> int:
     """Write a stack as a MaterialX document: nested layers of standard closures, or with
     ``--openpbr`` one OpenPBR Surface (stacks of at most one coat); print what the export
@@ -419,6 +439,17 @@ def build_parser() -> argparse.ArgumentParser:
                         "every parameter; the others are baked into the shader's table (default: none)")
     p.add_argument("--budget", default="auto", help="lobe budget: auto (default), all, or 1 to 8 closures")
     p.set_defaults(fn=cmd_export_osl)
+
+    p = sub.add_parser("export-presets", help="write osl/ (every preset's OSL bundle, both targets) and node_groups/ "
+                                              "(every preset's node group, an asset library that needs no extension)")
+    p.add_argument("--only", choices=("osl", "node-groups"), help="write one of the two folders")
+    p.add_argument("--osl-out", help="the osl/ folder to write (default: the repository's)")
+    p.add_argument("--node-groups-out", help="the node_groups/ folder to write (default: the repository's)")
+    p.add_argument("--blender-python",
+                   help="a Python whose bpy is the oldest supported Blender's, which saves the .blend "
+                        "(default: the repository's .venv-bpy-4.2.23/bin/python, made by `make exports`)")
+    p.add_argument("--no-previews", action="store_true", help="node groups without asset previews (faster)")
+    p.set_defaults(fn=cmd_export_presets)
 
     p = sub.add_parser("export-mtlx", help="write a stack as a MaterialX document (nested layers of standard "
                                            "closures, or OpenPBR Surface) and print what it could not express")

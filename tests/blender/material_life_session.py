@@ -53,8 +53,9 @@ def sphere_means(sc, out: Path, tag: str) -> list:
 
 def render_all(sc, out: Path, tag: str) -> dict:
     found = {}
+    eevee = {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}  # EEVEE's name
     for name, engine, osl in ENGINES:
-        sc.render.engine = engine
+        sc.render.engine = engine if engine != "BLENDER_EEVEE" or engine in eevee else "BLENDER_EEVEE_NEXT"  # 4.2-4.5
         if engine == "CYCLES":
             sc.cycles.shading_system = osl
         found[name] = sphere_means(sc, out, f"{tag}_{name}")
@@ -63,12 +64,9 @@ def render_all(sc, out: Path, tag: str) -> dict:
     return found
 
 
-def author(zip_path: Path, blend: Path) -> dict:
-    bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo="user_default", enable_on_install=True)
-    ext = sys.modules["bl_ext.user_default.lamella"]
-    import importlib
-
-    recompile = importlib.import_module("bl_ext.user_default.lamella.addon.lamella.blender.recompile")
+def studio_scene():
+    """A new file's scene: four spheres (``CENTRES``) under the forest HDRI, each seeing the world only,
+    an orthographic camera, Cycles with OSL at 64 samples and ``RES`` pixels: (scene, spheres)."""
     bpy.ops.wm.read_homefile(use_empty=True)
     sc = bpy.context.scene
     sc.render.engine = "CYCLES"
@@ -100,6 +98,16 @@ def author(zip_path: Path, blend: Path) -> dict:
         ob = bpy.context.object
         ob.visible_diffuse = ob.visible_glossy = ob.visible_transmission = ob.visible_shadow = False  # each sees the world only
         spheres.append(ob)
+    return sc, spheres
+
+
+def author(zip_path: Path, blend: Path) -> dict:
+    bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo="user_default", enable_on_install=True)
+    ext = sys.modules["bl_ext.user_default.lamella"]
+    import importlib
+
+    recompile = importlib.import_module("bl_ext.user_default.lamella.addon.lamella.blender.recompile")
+    sc, spheres = studio_scene()
 
     gold = {"layers": [{"ior": 1.5, "roughness": 0.01}],
             "base": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "roughness": 0.05}}

@@ -27,7 +27,8 @@ def test_zip_holds_the_runtime_and_nothing_of_development(built_zip):
                    "addon/lamella/data/assets/lamella_presets.blend"):
         assert needed in names, needed
     for name in names:
-        assert not name.startswith(("tests/", "bench/", "tools/", "docs/", "osl/", "build/", "dist/", ".venv",
+        assert not name.startswith(("tests/", "bench/", "tools/", "docs/", "osl/", "node_groups/", "build/", "dist/",
+                                    ".venv",
                                     "addon/lamella_dev/")), name
         assert "__pycache__" not in name and not name.endswith(".pyc"), name
     assert "addon/lamella/core/reference.py" not in names  # the contract's alias of lamella_dev.reference

@@ -21,9 +21,9 @@ SESSION = Path(__file__).with_name("material_life_session.py")
 ENGINES = ("cycles-osl", "cycles-nodes", "eevee")
 
 
-def _run(args, tmp_path, user):
+def _run(args, tmp_path, user, session=SESSION):
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user))
-    r = subprocess.run([sys.executable, str(SESSION), *map(str, args)], capture_output=True, text=True, env=env,
+    r = subprocess.run([sys.executable, str(session), *map(str, args)], capture_output=True, text=True, env=env,
                        timeout=900, cwd=tmp_path)
     lines = [line for line in r.stdout.splitlines() if line.startswith("FOUND ")]
     assert lines, f"no result (exit {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"

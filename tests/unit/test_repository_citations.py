@@ -337,7 +337,7 @@ def test_pages_cite_modules_names_files_targets_and_commands_that_exist():
 
 def test_the_citation_check_catches_what_it_is_for(tmp_path):
     page = tmp_path / "page.md"
-    page.write_text("`lamella.core.backends.trace._NO_SUCH_TABLE` and `trace._FOLD`, `staging.lookup`\n"
+    page.write_text("`lamella.core.backends.ir.trace._NO_SUCH_TABLE` and `trace._FOLD`, `staging.lookup`\n"
                     "`models.choose_auto`, `lamella.core.reference.eval_brdf_cos(stack, wi, wo)`\n"
                     "`no_such_module.function`, `bpy.ops.lamella.layer_add`, `sys.path`, `stack.to_dict()`\n"
                     "`make test`, `make no-such-target`, `lamella bench staging`, `lamella bench no-such`\n"
@@ -345,7 +345,7 @@ def test_the_citation_check_catches_what_it_is_for(tmp_path):
                     "`core/param_id.ParamId`, `no_such_file.py`, `api.py`, `out/contact_sheet.png`\n"
                     "```sh\nmake demo\nmake no-such-demo\n```\n")
     reported = [bad.split(": ", 1)[1] for bad in _unresolved_citations([page], root=tmp_path)]
-    for cited in ("lamella.core.backends.trace._NO_SUCH_TABLE", "no_such_module.function", "make no-such-target",
+    for cited in ("lamella.core.backends.ir.trace._NO_SUCH_TABLE", "no_such_module.function", "make no-such-target",
                   "lamella bench no-such", "lamella no-such-command", "lamella/core/no_such_folder/",
                   "no_such_file.py", "make no-such-demo"):
         assert any(r.startswith(cited + " ") for r in reported), (cited, reported)

@@ -448,8 +448,11 @@ def _socket_param(sk) -> ShaderParam:
 def _float32_literals(values) -> list[str]:
     """The shortest literals that read back as the float32 ``values`` (an array of finite
     numbers), in order: numpy's own float32 repr, vectorised (a value edit prints the material
-    table again; one call per value cost several milliseconds)."""
-    return np.asarray(values, dtype=np.float32).reshape(-1).astype(str).tolist()
+    table again; one call per value cost several milliseconds). numpy's print options decide that
+    repr, and colour-science sets them to numpy 1.13's (six digits) when it is imported: the
+    shader's text would depend on what the process imported before."""
+    with np.printoptions(legacy=False):
+        return np.asarray(values, dtype=np.float32).reshape(-1).astype(str).tolist()
 
 
 def _float32_literal(x) -> str:
