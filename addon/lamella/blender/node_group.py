@@ -18,6 +18,7 @@ content is replaced, and its interface changes only where the parameters changed
 """
 from __future__ import annotations
 
+import hashlib
 from collections import defaultdict
 
 import bpy
@@ -66,8 +67,6 @@ _DIGESTS: dict = {}
 
 
 def _file_digest(path) -> str:
-    import hashlib
-
     key = str(path)
     if key not in _DIGESTS:
         _DIGESTS[key] = hashlib.sha256(path.read_bytes()).hexdigest()[:16]

@@ -32,14 +32,23 @@ working shader in place and puts the message, which names the layer and field, i
 """
 from __future__ import annotations
 
+import sys
 import time
+import traceback
 from contextlib import contextmanager
 
 import bpy
 from bpy.app.handlers import persistent
 
-from ..core import stack_format
-from . import versioning
+from ..core import luts, stack_format
+from ..core.backends.osl import osl_shader
+from ..core.models import UnsupportedStack
+from ..core.stack import Stack, StackError
+from . import inspector, material_nodes, versioning
+from .animation import mirror_panel
+from .material_nodes import group_needed, osl_usable
+from .osl_compile import OSLCompileError, compile_source
+from .stack_props import ensure_uids, stack_dict
 
 DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
 GROUP_DELAY = 0.5  # seconds of quiet after an edit before a node group nobody renders is rebuilt
@@ -69,9 +78,6 @@ def _report(mat, what: str, error: Exception) -> None:
     """A failure while handling one material: its status says what failed (the material keeps
     what it had), the traceback goes to the console, and the caller goes on with the next
     material. Handlers never raise: one broken material must not cost another one its edits."""
-    import sys
-    import traceback
-
     print(f"Lamella: {what} of material {getattr(mat, 'name', '?')!r} failed:", file=sys.stderr)
     traceback.print_exception(error, file=sys.stderr)
     try:
@@ -155,8 +161,6 @@ def flush(defer_inspector: bool = False, drag: bool = False) -> None:
             if done and defer_inspector:
                 schedule_inspector(mat)
         else:
-            from . import inspector
-
             _guarded(mat, "the lobe inspector", lambda m=mat: inspector.update(m))
 
 
@@ -181,8 +185,6 @@ def _on_settle_timer():
 
 def groups_needed() -> bool:
     """Whether a scene of the file renders Lamella materials through the node group now."""
-    from .material_nodes import group_needed
-
     return any(group_needed(sc) for sc in bpy.data.scenes)
 
 
@@ -193,9 +195,6 @@ def stale_groups() -> list[str]:
 
 def flush_groups() -> None:
     """Build every node group that waits, from the stack and shader the material shows."""
-    from ..core.stack import Stack
-    from . import material_nodes
-
     work = sorted(_stale_groups)
     _stale_groups.clear()
 
@@ -228,10 +227,6 @@ def build_shader(stack, model: str, live=(), budget="auto", partition=None):
     merged to ``budget`` (or grouped as ``partition``, where it fits: ``lobe_budget.merge``):
     (OslShader, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError
     (an unknown model) or OSLCompileError."""
-    from ..core import luts
-    from ..core.backends.osl import osl_shader
-    from .osl_compile import compile_source
-
     shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition,
                         engine_switch=True)
     return shader, compile_source(shader.source, "lamella"), shader.model
@@ -241,8 +236,6 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     """Put a built shader into ``mat`` and record what it shows. With ``defer_group`` a structure
     change leaves the node group for ``flush_groups`` (a timer, a render or a save); without
     ``inspect`` the lobe inspector is left for the caller to refresh."""
-    from . import inspector, material_nodes
-
     shader, oso, picked = built
     if material_nodes.install(mat, stack, mat.lamella.model, shader, oso, build_group=not defer_group) is None:
         _stale_groups.add(mat.name_full)
@@ -274,12 +267,6 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     of the lobes (module docstring). On failure the status says why and
     the material keeps its shader (with ``raise_errors`` the error is raised too). Returns whether
     it compiled."""
-    from ..core.models import UnsupportedStack
-    from ..core.stack import Stack, StackError
-    from .osl_compile import OSLCompileError
-    from .stack_props import ensure_uids, stack_dict
-    from . import material_nodes
-
     settings = mat.lamella
     t0 = time.perf_counter()
     ensure_uids(settings)
@@ -327,8 +314,6 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
 def repair_needed(mat) -> str | None:
     """What is broken in ``mat``'s nodes (``material_nodes.broken``), after preparing the rebuild
     that repairs it; None if nothing is."""
-    from . import material_nodes
-
     why = material_nodes.broken(mat, group_pending=mat.name_full in _stale_groups)
     if why:
         material_nodes.prepare_repair(mat)
@@ -338,8 +323,6 @@ def repair_needed(mat) -> str | None:
 def links_changed(mat) -> bool:
     """Whether the sockets linked in ``mat`` differ from those its shader reads live (a
     texture linked or unlinked since the last compile: a structure edit)."""
-    from . import material_nodes
-
     s = mat.lamella
     return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_sockets(mat)) != s.live_params
 
@@ -364,8 +347,6 @@ def _flush_before(*_args):
 def _mirror_animation() -> list:
     """Copy every Lamella material's panel animation onto its Lamella node again (keys may have
     been edited since); returns the materials that have any."""
-    from .animation import mirror_panel
-
     out = []
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json and mat.animation_data is not None:
@@ -379,8 +360,6 @@ _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles r
 
 @persistent
 def _before_render(scene, *_args):
-    from .material_nodes import group_needed
-
     _mirror_animation()
     for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
         if never_compiled(mat):
@@ -404,8 +383,6 @@ def _after_depsgraph(scene, depsgraph=None, *_args):
     the scene now renders them (cheap otherwise: one comparison); compile a Lamella
     material that arrives without a shader (``never_compiled``: looked for among the updated data
     only)."""
-    from .material_nodes import group_needed, osl_usable
-
     if depsgraph is not None:
         for update in depsgraph.updates:
             mat = update.id.original
@@ -424,8 +401,6 @@ def _after_load(*_args):
     """A .blend opened: its materials brought to this version (``versioning``: the stack format,
     the layers' identities, an earlier version's nodes moved into the face); the lobe inspectors'
     previews redrawn (images are not saved with their pixels)."""
-    from . import material_nodes
-
     _pending.clear()
     _stale_groups.clear()
     _unsettled.clear()

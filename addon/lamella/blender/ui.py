@@ -21,12 +21,16 @@ import textwrap
 
 import bpy
 
+from ..core.backends.lobe_budget import MAX_CLOSURES
 from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
-from .material_nodes import inner_nodes, osl_usable
-from .operators import context_material
+from ..core.presets import scan_user
+from . import inspector, recompile
 from .i18n import iface_
 from .kind_hooks import hooks, layer_icon as kind_layer_icon
+from .material_nodes import broken, inner_nodes, osl_usable
+from .operators import context_material, preset_items, template_items
+from .paths import user_presets_dir
 
 STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
 
@@ -44,9 +48,6 @@ def layer_icon(item) -> str:
 
 # ---------------------------------------------------------------- pieces
 def _broken(mat) -> str | None:
-    from . import recompile
-    from .material_nodes import broken
-
     return broken(mat, group_pending=mat.name_full in recompile.stale_groups())
 
 
@@ -255,8 +256,6 @@ def draw_model(layout, mat) -> None:
     if s.lobes_all:
         col.label(text=iface_("{closures} closures for {lobes} lobes").format(closures=s.closures, lobes=s.lobes_all),
                   icon="SHADING_RENDERED", translate=False)
-        from ..core.backends.lobe_budget import MAX_CLOSURES
-
         if s.closures > MAX_CLOSURES:  # only lobes that cannot merge (of different kinds) pass the cap
             _wrapped(col, iface_("Cycles with OSL draws about {n} closures per point and drops the rest: unlink an "
                                  "input, or render with OSL off or in EEVEE.").format(n=MAX_CLOSURES + 1), "ERROR")
@@ -267,8 +266,6 @@ def draw_model(layout, mat) -> None:
 
 
 def draw_inspector(layout, mat) -> None:
-    from . import inspector
-
     s = mat.lamella
     header, body = layout.panel("lamella_inspector", default_closed=True)
     header.label(text="Lobe Inspector")
@@ -336,8 +333,6 @@ class LAMELLA_MT_add_layer(bpy.types.Menu):
     bl_label = "Add Layer"
 
     def draw(self, context):
-        from .operators import template_items
-
         for ident, label, _desc, icon, _i in template_items():
             self.layout.operator("lamella.layer_add", text=label, icon=icon).template = ident
 
@@ -348,8 +343,6 @@ class LAMELLA_MT_presets(bpy.types.Menu):
     bl_label = "Presets"
 
     def draw(self, context):
-        from .operators import preset_items
-
         layout = self.layout
         builtin = True
         for ident, label, _desc, icon, _i in preset_items():
@@ -358,9 +351,6 @@ class LAMELLA_MT_presets(bpy.types.Menu):
                 layout.separator()
                 layout.label(text="User Presets")
             layout.operator("lamella.preset_apply", text=label, icon=icon).preset = ident
-        from ..core.presets import scan_user
-        from .paths import user_presets_dir
-
         for path, why in scan_user(user_presets_dir())[1]:
             layout.label(text=iface_("Skipped {file}: {why}").format(file=path.name, why=why)[:120], icon="ERROR",
                          translate=False)
