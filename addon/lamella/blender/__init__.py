@@ -8,13 +8,15 @@ import atexit
 import os
 import sys
 
-from . import asset_library, conductor_modes, kind_hooks, operators, osl_compile, paths, properties, recompile, ui
+from . import (asset_library, compiled, conductor_modes, kind_hooks, operators, osl_compile, paths, properties,
+               recompile, ui)
 
 # the built-in kinds' Blender hooks (an extension kind's module registers its own, before ``register``)
 kind_hooks.register("coat", kind_hooks.COAT_HOOKS)
 kind_hooks.register("conductor", conductor_modes.HOOKS)
 
-_MODULES = (properties, recompile, operators, ui, asset_library)  # registered in this order, unregistered in reverse
+# registered in this order, unregistered in reverse
+_MODULES = (properties, compiled, recompile, operators, ui, asset_library)
 _registered = False
 _exit_hook = False
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.api import evaluate, lobes
 from ..core.param_id import r_from_alpha
-from ..core.stack import Stack
+from . import compiled
 
 SIZE = 160  # preview image is SIZE x SIZE pixels
 N_ANGLES = 181
@@ -98,7 +98,7 @@ def update(mat) -> None:
     s = mat.lamella
     if not s.compiled_json:
         return
-    stack = Stack.from_json(s.compiled_json)
+    stack = compiled.get(mat).stack
     model = s.picked_model or "auto"
     theta = float(s.inspect_angle)
     s.lobes.clear()

@@ -44,7 +44,7 @@ from ..core import luts, stack_format
 from ..core.backends.osl import osl_shader
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack, StackError
-from . import inspector, material_nodes, versioning
+from . import compiled, inspector, material_nodes, versioning
 from .animation import mirror_panel
 from .material_nodes import group_needed, osl_usable
 from .osl_compile import OSLCompileError, compile_source
@@ -199,9 +199,8 @@ def flush_groups() -> None:
     _stale_groups.clear()
 
     def build(mat):
-        stack = Stack.from_json(mat.lamella.compiled_json)
-        live = tuple(p for p in mat.lamella.live_params.split(", ") if p)
-        material_nodes.build_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
+        shown = compiled.get(mat)
+        material_nodes.build_group(mat, shown.stack, mat.lamella.model, (shown.live, mat.lamella.lobe_budget))
 
     for key in work:
         mat = _material(key)
@@ -250,6 +249,7 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
         settings.lobes_all = shader.staged.lobes_all
     settings.live_params = ", ".join(shader.live_sockets)
     settings.compiled_json = stack.to_json(indent=None)
+    compiled.record(mat, stack, script=material_nodes.inner_nodes(mat)[1] is not None)
     settings.format = stack_format.FORMAT  # compiled from properties of this Lamella's schema
     settings.status = "OK"
     settings.status_message = ""
@@ -311,10 +311,49 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     return True
 
 
-def repair_needed(mat) -> str | None:
-    """What is broken in ``mat``'s nodes (``material_nodes.broken``), after preparing the rebuild
-    that repairs it; None if nothing is."""
+def check_nodes(mat) -> str | None:
+    """What is broken in ``mat``'s nodes (``material_nodes.broken``; a node group that waits for
+    its rebuild is not), or None; recorded for the panel (``compiled.note_nodes``), which shows it
+    without checking anything itself."""
     why = material_nodes.broken(mat, group_pending=mat.name_full in _stale_groups)
+    if compiled.note_nodes(mat, why, material_nodes.inner_nodes(mat)[1] is not None):
+        _redraw_panels()
+    return why
+
+
+_to_check: set[int] = set()  # session_uid of the materials whose nodes the panel wants checked
+
+
+def check_soon(mat) -> None:
+    """Check ``mat``'s nodes on the next tick (``check_nodes``): the panel asks for it where what
+    it shows is stale (``compiled.stale``), and never checks in its draw code."""
+    _to_check.add(mat.session_uid)
+    if not bpy.app.timers.is_registered(_on_check_timer):
+        bpy.app.timers.register(_on_check_timer, first_interval=0.0)
+
+
+def _on_check_timer():
+    work = set(_to_check)
+    _to_check.clear()
+    for mat in bpy.data.materials:
+        if mat.session_uid in work and mat.lamella.enabled and mat.lamella.compiled_json:
+            _guarded(mat, "checking the nodes", lambda m=mat: check_nodes(m))
+    return None
+
+
+def _redraw_panels() -> None:
+    """Redraw the editors that show the Lamella panel (Properties, the shader editor's sidebar)."""
+    wm = getattr(bpy.context, "window_manager", None)
+    for window in (wm.windows if wm is not None else ()):
+        for area in window.screen.areas:
+            if area.type in ("PROPERTIES", "NODE_EDITOR"):
+                area.tag_redraw()
+
+
+def repair_needed(mat) -> str | None:
+    """What is broken in ``mat``'s nodes (``check_nodes``), after preparing the rebuild that
+    repairs it; None if nothing is."""
+    why = check_nodes(mat)
     if why:
         material_nodes.prepare_repair(mat)
     return why
@@ -324,7 +363,7 @@ def links_changed(mat) -> bool:
     """Whether the sockets linked in ``mat`` differ from those its shader reads live (a
     texture linked or unlinked since the last compile: a structure edit)."""
     s = mat.lamella
-    return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_sockets(mat)) != s.live_params
+    return bool(s.enabled and s.compiled_json) and material_nodes.linked_sockets(mat) != compiled.get(mat).live
 
 
 # ---------------------------------------------------------------- handlers
@@ -432,10 +471,11 @@ def unregister():
         lst = getattr(bpy.app.handlers, name)
         while fn in lst:
             lst.remove(fn)
-    for timer in (_on_timer, _on_group_timer, _on_settle_timer):
+    for timer in (_on_timer, _on_group_timer, _on_settle_timer, _on_check_timer):
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)
     _pending.clear()
     _stale_groups.clear()
     _unsettled.clear()
     _last_compile.clear()
+    _to_check.clear()

@@ -13,7 +13,9 @@ Layout, top to bottom (Blender's property split throughout):
   slice preview and the table of lobes).
 
 Fields are drawn from the layer-kind schema, like the properties themselves. Draw functions read
-properties only: they compute nothing and never compile.
+properties, and what was computed before the draw: the compile's products and the last check of
+the material's nodes (``compiled``; a stale check is asked for again, to run after the draw).
+They parse, hash, walk node trees and compile nothing.
 """
 from __future__ import annotations
 
@@ -25,10 +27,10 @@ from ..core.backends.lobe_budget import MAX_CLOSURES
 from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
 from ..core.presets import scan_user
-from . import inspector, recompile
+from . import compiled, inspector, recompile
 from .i18n import iface_
 from .kind_hooks import hooks, layer_icon as kind_layer_icon
-from .material_nodes import broken, inner_nodes, osl_usable
+from .material_nodes import osl_usable
 from .operators import context_material, preset_items, template_items
 from .paths import user_presets_dir
 
@@ -47,20 +49,23 @@ def layer_icon(item) -> str:
 
 
 # ---------------------------------------------------------------- pieces
-def _broken(mat) -> str | None:
-    return broken(mat, group_pending=mat.name_full in recompile.stale_groups())
-
-
 def draw_status(layout, context, mat) -> None:
+    """The compile's status and what renders the material in the scene's engine. What the nodes
+    are like is the last check's (``compiled``); where that is stale, a new check is asked for,
+    to run after the draw (``recompile.check_soon``)."""
     s = mat.lamella
+    shown = compiled.peek(mat)
+    nodes = shown.nodes if shown is not None else None  # None: not checked yet
+    if compiled.stale(nodes) and s.compiled_json:
+        recompile.check_soon(mat)
     box = layout.box()
     if s.status == "ERROR":
         box.alert = True
         _wrapped(box, s.status_message.splitlines()[0] if s.status_message else iface_("error"), "ERROR")
         box.label(text="The material keeps its last working shader.", icon="BLANK1")
-    elif s.status == "OK" and (why := _broken(mat)):
+    elif s.status == "OK" and nodes is not None and nodes.why:
         box.alert = True
-        _wrapped(box, iface_("Needs repair: {why}").format(why=why), "ERROR")
+        _wrapped(box, iface_("Needs repair: {why}").format(why=nodes.why), "ERROR")
         box.label(text="Repaired at the next render or edit, or with Recompile.", icon="BLANK1")
     elif s.status == "OK":
         picked = iface_("auto: {model}").format(model=s.picked_model) if s.model == "auto" else s.picked_model
@@ -95,11 +100,12 @@ def draw_status(layout, context, mat) -> None:
                           "render black: check a render, and if it is black unlink an input (baked values cost "
                           "nothing) or use Cycles with OSL on the CPU.")
         note = note.format(**values)
-    elif sc.render.engine == "CYCLES" and inner_nodes(mat)[1] is None:
+    # which of its two shaders Cycles renders is said once the nodes are checked (``nodes``)
+    elif sc.render.engine == "CYCLES" and nodes is not None and not nodes.script:
         note = iface_("Cycles renders the node group: a linked input ({live}) reaches the model's look-up tables, "
                       "which the node group carries inside the file and the OSL shader would read from files "
                       "outside it.").format(live=s.live_params)
-    elif sc.render.engine == "CYCLES":
+    elif sc.render.engine == "CYCLES" and nodes is not None:
         note = iface_("Cycles renders the OSL shader. With Open Shading Language off it renders the node group "
                       "instead (the same image where nothing linked is too large for it), and every shader of the "
                       "scene renders faster.")
