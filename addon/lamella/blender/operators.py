@@ -8,6 +8,7 @@ material as it was.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import bpy
@@ -275,13 +276,45 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
 
 # ---------------------------------------------------------------- presets and files
 _PRESET_ITEMS: list = []
+_SKIPPED_PRESETS: list = []  # (path, why) of the user's preset files that do not load
+_BUILTIN_PRESETS: list = []
+_preset_folder: list = [None]  # what the user's preset folder held when the items were made
+
+
+def _folder_state(folder) -> tuple:
+    """The user's preset folder and each preset file's name, size and time: what says whether the
+    files must be read again."""
+    if folder is None:
+        return (None,)
+    try:
+        with os.scandir(folder) as it:
+            files = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns) for e in it if e.name.endswith(".json"))
+    except OSError:
+        files = []
+    return (str(folder), *files)
 
 
 def preset_items(self=None, context=None):
-    """Built-in presets, then the user's (the list object is kept alive, as Blender requires)."""
-    _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
-                        for i, p in enumerate(presets.all_presets(paths.user_presets_dir()))]
+    """Built-in presets, then the user's (the list object is kept alive, as Blender requires). The
+    files are read only when the user's folder changed (the built-in ones once), so the menus that
+    list them read nothing else while they draw; the user's files that do not load are
+    ``skipped_presets``."""
+    folder = paths.user_presets_dir()
+    state = _folder_state(folder)
+    if state != _preset_folder[0]:
+        if not _BUILTIN_PRESETS:
+            _BUILTIN_PRESETS.extend(presets.builtin())
+        user, skipped = presets.scan_user(folder)
+        _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
+                            for i, p in enumerate(_BUILTIN_PRESETS + user)]
+        _SKIPPED_PRESETS[:] = skipped
+        _preset_folder[0] = state
     return _PRESET_ITEMS
+
+
+def skipped_presets() -> list:
+    """(path, why) of the user's preset files that do not load, as ``preset_items`` last read them."""
+    return _SKIPPED_PRESETS
 
 
 def _apply_file_stack(op, mat, stack) -> None:
@@ -433,4 +466,15 @@ classes = (
 )
 
 
-register, unregister = bpy.utils.register_classes_factory(classes)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def register():
+    _register_classes()
+    template_items()  # the menus' items read now, not while a menu draws
+    preset_items()
+
+
+def unregister():
+    _unregister_classes()
+    _preset_folder[0] = None

@@ -14,8 +14,10 @@ Layout, top to bottom (Blender's property split throughout):
 
 Fields are drawn from the layer-kind schema, like the properties themselves. Draw functions read
 properties, and what was computed before the draw: the compile's products and the last check of
-the material's nodes (``compiled``; a stale check is asked for again, to run after the draw).
-They parse, hash, walk node trees and compile nothing.
+the material's nodes (``compiled``; a stale check is asked for again, to run after the draw), and
+the menus' items (``operators``, read when the extension registers; the presets' again only when
+a file in the user's preset folder changed). They parse, hash, walk node trees and compile
+nothing.
 """
 from __future__ import annotations
 
@@ -26,13 +28,11 @@ import bpy
 from ..core.backends.lobe_budget import MAX_CLOSURES
 from ..core.backends.node_graph import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
-from ..core.presets import scan_user
 from . import compiled, inspector, recompile
 from .i18n import iface_
 from .kind_hooks import hooks, layer_icon as kind_layer_icon
 from .material_nodes import osl_usable
-from .operators import context_material, preset_items, template_items
-from .paths import user_presets_dir
+from .operators import context_material, preset_items, skipped_presets, template_items
 
 STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
 
@@ -357,7 +357,7 @@ class LAMELLA_MT_presets(bpy.types.Menu):
                 layout.separator()
                 layout.label(text="User Presets")
             layout.operator("lamella.preset_apply", text=label, icon=icon).preset = ident
-        for path, why in scan_user(user_presets_dir())[1]:
+        for path, why in skipped_presets():
             layout.label(text=iface_("Skipped {file}: {why}").format(file=path.name, why=why)[:120], icon="ERROR",
                          translate=False)
 
