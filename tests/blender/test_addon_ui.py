@@ -135,3 +135,37 @@ def test_the_node_group_note_says_what_svm_can_hold(addon):
             assert want in text, (live, values, text)
     finally:
         sc.render.engine, sc.cycles.shading_system = engine, osl
+
+
+class _Space:
+    def __init__(self, tree_type, id):
+        self.tree_type, self.id = tree_type, id
+
+
+class _PanelContext:
+    def __init__(self, scene, material=None, space_data=None):
+        self.scene, self.material, self.space_data = scene, material, space_data
+
+
+def test_the_two_panels_share_one_poll_and_draw(addon):
+    """Properties > Material and the shader editor's sidebar are one panel (``ui.LamellaPanel``):
+    the same poll and draw, each showing its editor's material."""
+    mat = addon.data.materials.new("ui_panels")
+    api.apply_stack(mat, suite.load("gold_coated"))
+    sc = addon.context.scene
+    props, sidebar = ui.LAMELLA_PT_material, ui.LAMELLA_PT_node_editor
+    assert props.draw is sidebar.draw is ui.LamellaPanel.draw
+    assert props.poll.__func__ is sidebar.poll.__func__
+    in_props = _PanelContext(sc, material=mat)
+    in_sidebar = _PanelContext(sc, space_data=_Space("ShaderNodeTree", mat))
+    assert props.poll(in_props) and sidebar.poll(in_sidebar)
+    assert not props.poll(_PanelContext(sc))
+    assert not sidebar.poll(_PanelContext(sc, space_data=_Space("GeometryNodeTree", mat)))
+    assert not sidebar.poll(_PanelContext(sc, space_data=_Space("ShaderNodeTree", sc.world)))
+    drawn = []
+    for panel, context in ((props, in_props), (sidebar, in_sidebar)):
+        layout = RecordingLayout()
+        panel.draw(type("P", (), {"layout": layout, "shown_material": staticmethod(panel.shown_material)})(), context)
+        _check(addon, layout)
+        drawn.append(([(d.as_pointer(), name) for d, name in layout.props], layout.operators, layout.labels))
+    assert drawn[0] == drawn[1]

@@ -1,4 +1,5 @@
-"""The Lamella panel: in Material Properties and in the shader editor's sidebar (one draw code).
+"""The Lamella panel: in Material Properties and in the shader editor's sidebar (one poll and draw
+code, ``LamellaPanel``).
 
 Layout, top to bottom (Blender's property split throughout):
 
@@ -214,6 +215,14 @@ def _draw_field(col, kind, pg, f, enabled_fields) -> None:
         sub.prop(pg, f.name)
 
 
+def _draw_kind(layout, kind, pg, panel_prefix: str) -> None:
+    """One layer of ``kind`` held in ``pg``: its kind's own part (``kind_hooks``), then its schema
+    fields (those the part leaves editable)."""
+    draw_kind = hooks(kind.type).draw
+    enabled = draw_kind(layout, pg) if draw_kind is not None else None
+    draw_fields(layout, kind, pg, panel_prefix, enabled)
+
+
 def draw_active_layer(layout, mat) -> None:
     s = mat.lamella
     item = s.active_layer()
@@ -225,10 +234,7 @@ def draw_active_layer(layout, mat) -> None:
         body.label(text="No coat: add one with +", icon="INFO")
         return
     body.prop(item, "name")
-    kind, pg = COAT_KINDS[item.kind], item.settings()
-    draw_kind = hooks(kind.type).draw
-    enabled = draw_kind(body, pg) if draw_kind is not None else None
-    draw_fields(body, kind, pg, "lamella_layer", enabled)
+    _draw_kind(body, COAT_KINDS[item.kind], item.settings(), "lamella_layer")
 
 
 def draw_base(layout, mat) -> None:
@@ -239,10 +245,7 @@ def draw_base(layout, mat) -> None:
     if body is None:
         return
     body.row().prop(b, "kind", expand=True)
-    pg = b.settings()
-    draw_kind = hooks(kind.type).draw
-    enabled = draw_kind(body, pg) if draw_kind is not None else None  # the kind's own part, then its fields
-    draw_fields(body, kind, pg, "lamella_base", enabled)
+    _draw_kind(body, kind, b.settings(), "lamella_base")
 
 
 def draw_model(layout, mat) -> None:
@@ -378,40 +381,54 @@ class LAMELLA_MT_stack_files(bpy.types.Menu):
         layout.operator("lamella.disable", icon="X")
 
 
-class LAMELLA_PT_material(bpy.types.Panel):
-    """Lamella in Properties > Material."""
+class LamellaPanel:
+    """Mixin: the Lamella panel, one poll and one draw wherever it is shown (as Cycles' panels
+    share theirs between engines); a panel class says where it sits and which material it shows
+    (``shown_material``)."""
 
     bl_label = "Lamella"
+
+    @staticmethod
+    def shown_material(context):
+        raise NotImplementedError
+
+    @classmethod
+    def poll(cls, context):
+        return cls.shown_material(context) is not None
+
+    def draw(self, context):
+        draw_material(self.layout, context, self.shown_material(context))
+
+
+class LAMELLA_PT_material(LamellaPanel, bpy.types.Panel):
+    """Lamella in Properties > Material."""
+
     bl_idname = "LAMELLA_PT_material"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "material"
 
-    @classmethod
-    def poll(cls, context):
-        return getattr(context, "material", None) is not None
-
-    def draw(self, context):
-        draw_material(self.layout, context, context.material)
+    @staticmethod
+    def shown_material(context):
+        return getattr(context, "material", None)
 
 
-class LAMELLA_PT_node_editor(bpy.types.Panel):
+class LAMELLA_PT_node_editor(LamellaPanel, bpy.types.Panel):
     """Lamella in the shader editor's sidebar."""
 
-    bl_label = "Lamella"
     bl_idname = "LAMELLA_PT_node_editor"
     bl_space_type = "NODE_EDITOR"
     bl_region_type = "UI"
     bl_category = "Lamella"
 
-    @classmethod
-    def poll(cls, context):
+    @staticmethod
+    def shown_material(context):
+        """The material whose node tree the editor shows."""
         space = getattr(context, "space_data", None)
-        return (space is not None and getattr(space, "tree_type", "") == "ShaderNodeTree"
-                and isinstance(getattr(space, "id", None), bpy.types.Material))
-
-    def draw(self, context):
-        draw_material(self.layout, context, context.space_data.id)
+        if space is not None and getattr(space, "tree_type", "") == "ShaderNodeTree":
+            mat = getattr(space, "id", None)
+            return mat if isinstance(mat, bpy.types.Material) else None
+        return None
 
 
 classes = (LAMELLA_UL_layers, LAMELLA_MT_add_layer, LAMELLA_MT_presets, LAMELLA_MT_stack_files,
