@@ -40,7 +40,8 @@ def test_no_import_inside_a_function_or_class():
     for path in sorted(BLENDER.glob("*.py")):
         for top in ast.parse(path.read_text(encoding="utf-8")).body:
             if isinstance(top, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-                found += [f"{path.name}:{n.lineno}" for n in ast.walk(top) if isinstance(n, (ast.Import, ast.ImportFrom))]
+                found += [f"{path.name}:{n.lineno}" for n in ast.walk(top)
+                          if isinstance(n, (ast.Import, ast.ImportFrom))]
     assert not found, found
 
 

@@ -98,15 +98,18 @@ def record(mat, stack: Stack, script: bool) -> Compiled:
     return entry
 
 
-def note_nodes(mat, why: str | None, script: bool) -> bool:
-    """Record what a check of ``mat``'s nodes found; returns whether the panel shows something
-    else now."""
+def note_nodes(mat, why: str | None, script: bool) -> None:
+    """Record what a check of ``mat``'s nodes found."""
     entry = get(mat)
-    if entry is None:
-        return False
-    before = entry.nodes
-    entry.nodes = NodesCheck(why, script, time.monotonic(), _generation)
-    return before is None or (before.why, before.script) != (why, script)
+    if entry is not None:
+        entry.nodes = NodesCheck(why, script, time.monotonic(), _generation)
+
+
+def shown_nodes(mat) -> tuple | None:
+    """What the panel shows of ``mat``'s nodes now: (why they are broken, whether the Script node
+    is in place) of the last check, None before one."""
+    entry = peek(mat)
+    return None if entry is None or entry.nodes is None else (entry.nodes.why, entry.nodes.script)
 
 
 def stale(check: NodesCheck | None) -> bool:

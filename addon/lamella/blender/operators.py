@@ -278,7 +278,7 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
 _PRESET_ITEMS: list = []
 _SKIPPED_PRESETS: list = []  # (path, why) of the user's preset files that do not load
 _BUILTIN_PRESETS: list = []
-_preset_folder: list = [None]  # what the user's preset folder held when the items were made
+_preset_folder = None  # what the user's preset folder held when the items were made (``_folder_state``)
 
 
 def _folder_state(folder) -> tuple:
@@ -299,16 +299,17 @@ def preset_items(self=None, context=None):
     files are read only when the user's folder changed (the built-in ones once), so the menus that
     list them read nothing else while they draw; the user's files that do not load are
     ``skipped_presets``."""
+    global _preset_folder
     folder = paths.user_presets_dir()
     state = _folder_state(folder)
-    if state != _preset_folder[0]:
+    if state != _preset_folder:
         if not _BUILTIN_PRESETS:
             _BUILTIN_PRESETS.extend(presets.builtin())
         user, skipped = presets.scan_user(folder)
         _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
                             for i, p in enumerate(_BUILTIN_PRESETS + user)]
         _SKIPPED_PRESETS[:] = skipped
-        _preset_folder[0] = state
+        _preset_folder = state
     return _PRESET_ITEMS
 
 
@@ -432,8 +433,8 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
     def run(self, context, mat):
         out = Path(self.filepath)
         shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
-                              target=self.target_convention, file_name=out.name, live=material_nodes.linked_sockets(mat),
-                              budget=mat.lamella.lobe_budget)
+                              target=self.target_convention, file_name=out.name,
+                              live=material_nodes.linked_sockets(mat), budget=mat.lamella.lobe_budget)
         self.report({"INFO"}, rpt_("wrote {shader} and its tables").format(shader=shader))
 
 
@@ -476,5 +477,6 @@ def register():
 
 
 def unregister():
+    global _preset_folder
     _unregister_classes()
-    _preset_folder[0] = None
+    _preset_folder = None

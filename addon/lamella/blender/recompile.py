@@ -316,8 +316,7 @@ def check_nodes(mat) -> str | None:
     its rebuild is not), or None; recorded for the panel (``compiled.note_nodes``), which shows it
     without checking anything itself."""
     why = material_nodes.broken(mat, group_pending=mat.name_full in _stale_groups)
-    if compiled.note_nodes(mat, why, material_nodes.inner_nodes(mat)[1] is not None):
-        _redraw_panels()
+    compiled.note_nodes(mat, why, material_nodes.inner_nodes(mat)[1] is not None)
     return why
 
 
@@ -335,9 +334,14 @@ def check_soon(mat) -> None:
 def _on_check_timer():
     work = set(_to_check)
     _to_check.clear()
+    changed = False
     for mat in bpy.data.materials:
         if mat.session_uid in work and mat.lamella.enabled and mat.lamella.compiled_json:
+            before = compiled.shown_nodes(mat)
             _guarded(mat, "checking the nodes", lambda m=mat: check_nodes(m))
+            changed |= compiled.shown_nodes(mat) != before
+    if changed:
+        _redraw_panels()
     return None
 
 
