@@ -9,8 +9,9 @@ nodes found (``peek``), a check that runs outside the draw (``recompile.check_no
 
 An entry belongs to one material, by its ``session_uid`` (kept through renames and undo steps, new
 for a copy, never reused within a session), and to the two strings it was read from: it serves only
-while the material still stores exactly those (compared on every read), so a compile, an undo, a
-script writing the strings or a copy that is edited gets a new entry, never another material's.
+while the material still stores exactly those (compared on every read): a compile, an undo or a
+script writing the strings gets a new entry, and a copy has its own from the start (equal to the
+original's until one of them is compiled again); none reads another material's.
 
 - ``record``: a compile puts what it knows in place (its Stack, and that the nodes it built are
   whole) without parsing anything;
