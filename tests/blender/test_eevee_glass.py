@@ -4,7 +4,7 @@ same scenes is the control (within 15 %).
 
 Before the Lamella node gave the material output a Thickness of 0, EEVEE's thickness model added a
 second refraction at the index of the node group's refraction closure (a lobe about the
-transmitted direction at a very large index, ``bsdf_nodes``): the frosted glass preset rendered at
+transmitted direction at a very large index, ``lobe_kinds.transmission``): the frosted glass preset rendered at
 0.20 of Cycles' brightness with ray tracing on, a rough glass at 0.69."""
 import json
 

@@ -120,6 +120,7 @@ def test_damaged_nodes_are_reported_and_repaired_at_the_next_render(addon, scene
     from lamella.blender import ui
     from .addon_helpers import RecordingLayout
 
+    assert recompile.check_nodes(m) == why  # the check the panel has run after its draw
     layout = RecordingLayout()
     ui.draw_status(layout, addon.context, m)
     assert any("Needs repair" in t for t in layout.labels), layout.labels

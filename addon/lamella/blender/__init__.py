@@ -1,28 +1,30 @@
 """Everything that needs bpy: the extension's properties, panel, operators, node wiring, handlers
 and its asset library. ``register()`` / ``unregister()`` install the extension's classes
-and handlers (the top-level extension module calls them)."""
+and handlers (the top-level extension module calls them, and imports this package only then:
+``import lamella`` and ``lamella.core`` never import bpy)."""
 from __future__ import annotations
 
 import atexit
-import importlib
 import os
 import sys
 
-_MODULES = ("properties", "recompile", "operators", "ui", "asset_library")
+from . import (asset_library, compiled, conductor_modes, kind_hooks, operators, osl_compile, paths, properties,
+               recompile, ui)
+
+# the built-in kinds' Blender hooks (an extension kind's module registers its own, before ``register``)
+kind_hooks.register("coat", kind_hooks.COAT_HOOKS)
+kind_hooks.register("conductor", conductor_modes.HOOKS)
+
+# registered in this order, unregistered in reverse
+_MODULES = (properties, compiled, recompile, operators, ui, asset_library)
 _registered = False
 _exit_hook = False
 
 
-def _modules():
-    return [importlib.import_module(f".{name}", __name__) for name in _MODULES]
-
-
 def register():
     global _registered, _exit_hook
-    from . import osl_compile, paths
-
     osl_compile.set_cache_root(paths.cache_dir())
-    for m in _modules():
+    for m in _MODULES:
         m.register()
     _registered = True
     if not _exit_hook:
@@ -39,7 +41,7 @@ def unregister():
     global _registered
     if not _registered:
         return
-    for m in reversed(_modules()):
+    for m in reversed(_MODULES):
         m.unregister()
     _registered = False
 

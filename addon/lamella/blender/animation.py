@@ -23,6 +23,11 @@ from contextlib import contextmanager
 
 from . import face
 
+try:  # Blender 4.4 and newer: an action's F-curves are in the channel bag of its slot
+    from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
+except ImportError:  # before 4.4 ``Action.fcurves``, the only path there
+    animdata_get_channelbag_for_assigned_slot = None
+
 MIRROR_KEY = "lamella_mirrored"  # Lamella group: the input keys whose animation mirrors the panel's
 _PANEL_PATH = re.compile(r'^lamella\.(?:coats\[(\d+)\]|base)\.(\w+)\.(\w+)$')
 _COAT_PATH = re.compile(r'^lamella\.coats\[(\d+)\](.*)$')
@@ -37,8 +42,6 @@ def fcurves(idblock) -> list:
     legacy = getattr(ad.action, "fcurves", None)  # Blender before 5.0
     if legacy is not None:
         return list(legacy)
-    from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
-
     bag = animdata_get_channelbag_for_assigned_slot(ad)
     return list(bag.fcurves) if bag is not None else []
 
@@ -175,9 +178,7 @@ def mirror_panel(mat) -> bool:
     """Copy the keyframes and drivers of ``mat``'s panel values onto its Lamella node's inputs
     (and remove the copies whose panel animation is gone). Returns whether the set of mirrored
     inputs changed (the shader then reads others live: a structure edit)."""
-    from .material_nodes import face_node
-
-    node = face_node(mat)
+    node = face.face_node(mat)
     if node is None or node.node_tree is None:
         return False
     if mat.animation_data is None and not node.node_tree.get(MIRROR_KEY):
@@ -226,6 +227,4 @@ def _remove_fcurve(idblock, fc) -> None:
     if legacy is not None:
         legacy.remove(fc)
         return
-    from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
-
     animdata_get_channelbag_for_assigned_slot(ad).fcurves.remove(fc)

@@ -8,19 +8,17 @@ the extension's top-level module: ``apply_stack(material, stack)`` and ``read_st
 from __future__ import annotations
 
 import json
+import time
 
 from ..core.stack import Stack, StackError
+from . import material_nodes, recompile
+from .stack_props import stack_dict, write_stack
 
 
 def apply_stack(material, stack, model: str | None = None):
     """Make ``material`` a Lamella material showing ``stack`` (a Stack, dict or JSON text),
     optionally forcing ``model`` (default: the material's model setting, "auto" for a new one).
     Builds or updates its nodes; returns the material."""
-    import time
-
-    from . import recompile
-    from .stack_props import write_stack
-
     t0 = time.perf_counter()
     stack = Stack.coerce(stack)
     if material.library is not None:
@@ -29,8 +27,6 @@ def apply_stack(material, stack, model: str | None = None):
     settings = material.lamella
     if model is None:
         model = settings.model if settings.enabled else "auto"
-    from . import material_nodes
-
     # parameters whose sockets are linked (a texture) stay live; the rest is baked
     built = recompile.build_shader(stack, model, material_nodes.linked_sockets(material),
                                    material.lamella.lobe_budget)  # raises before anything changes
@@ -45,8 +41,6 @@ def apply_stack(material, stack, model: str | None = None):
 def read_stack(material) -> dict | None:
     """The stack ``material`` renders (muted layers left out) as a dict, or None for a material
     Lamella does not build."""
-    from .stack_props import stack_dict
-
     settings = getattr(material, "lamella", None)
     if settings is None or not settings.enabled:
         return None
@@ -63,11 +57,9 @@ def input_socket(material, layer, field: str):
     (``"roughness"``, ``"ior"``, ``"sigma_a"``; ``"roughness_y"`` across the tangent of an
     anisotropic roughness). The socket speaks the panel's units (roughness as Blender's r). It
     stays the layer's through edits of other layers. Raises KeyError naming what exists."""
-    from .material_nodes import input_socket as find
-
     if not getattr(material, "lamella", None) or not material.lamella.enabled:
         raise KeyError(f"material {material.name!r} is not a Lamella material")
-    return find(material, layer, field)
+    return material_nodes.input_socket(material, layer, field)
 
 
 def read_stack_json(material, indent: int | None = 2) -> str | None:

@@ -4,9 +4,13 @@ reflectivity and edge tint, stored as eta/k) or eta + i k itself. The stack hold
 the mode and its inputs are properties of the panel."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from bpy.props import EnumProperty, FloatVectorProperty
 
 from ..core import metals
+from .face import FaceInput
+from .kind_hooks import KindHooks
 
 METAL_MODES = (
     ("MEASURED", "Measured", "A measured metal: published complex index of refraction"),
@@ -99,10 +103,6 @@ def face_inputs(pg, inputs: list, uid: str, label: str) -> list:
     k from them inside (``gulbrandsen_nodes``), so a texture on the colours drives the metal."""
     if pg.mode != "ARTIST":
         return inputs
-    from dataclasses import replace
-
-    from .face import FaceInput
-
     out = []
     k_model = next(i.model for i in inputs if i.field == "k")
     for i in inputs:
@@ -161,3 +161,6 @@ def gulbrandsen_nodes(nt, r, g):
             one_minus_r)
     k = sqrt(vm("MAXIMUM", k2, 0.0))
     return n, k
+
+
+HOOKS = KindHooks(properties=properties, draw=draw, written=written, face_inputs=face_inputs)

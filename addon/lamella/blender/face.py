@@ -34,8 +34,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..core.backends.osl.emit import ENGINE_SWITCH
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import AXES, socket_name
+from .kind_hooks import hooks
 from .node_group import shared_group
 from .osl_compile import set_socket
 
@@ -50,12 +52,28 @@ NORMAL, TANGENT = "Normal", "Tangent"
 FRAME_GROUP = ".lamella_face_frame_1"  # the shared normal and tangent picks (``_frame_group``)
 # EEVEE's object thickness for the Material Output's Thickness (Cycles ignores it): 0, one interface.
 # The node group's refraction closure is already the whole surface's refraction (a lobe about the
-# transmitted direction at index REFRACT_ETA, ``bsdf_nodes``); EEVEE's default thickness model adds
+# transmitted direction at index REFRACT_ETA, ``lobe_kinds.transmission``); EEVEE's default thickness model adds
 # a second refraction at that index, where anything off the lobe's axis is totally reflected, and
 # EEVEE's ray-traced glass renders dark.
 THICKNESS = "Thickness"
 OUTPUTS = (("BSDF", "NodeSocketShader"), (THICKNESS, "NodeSocketFloat"))
 BASE_UID = "base"
+
+
+def is_face_tree(tree) -> bool:
+    """Whether node group ``tree`` is a face's group."""
+    return tree is not None and FACE_KEY in tree
+
+
+def face_node(mat):
+    """``mat``'s face node (by name, else the first group node of a face group), or None."""
+    nt = mat.node_tree
+    if nt is None:
+        return None
+    node = nt.nodes.get(FACE)
+    if node is not None and node.bl_idname == "ShaderNodeGroup" and is_face_tree(node.node_tree):
+        return node
+    return next((n for n in nt.nodes if n.bl_idname == "ShaderNodeGroup" and is_face_tree(n.node_tree)), None)
 
 
 @dataclass(frozen=True)
@@ -64,7 +82,7 @@ class FaceInput:
     belongs to; ``name`` the label shown; ``socket_type`` a Blender interface socket type and
     ``subtype``; ``value`` the panel's value (a float or an RGB tuple); ``lo``/``hi`` the hard
     limits a linked value is clamped to (None: open); ``model`` the model socket it feeds now
-    (``core.backends.sockets``: ``coat0_roughness``), None for a muted layer or an input that
+    (``core.backends.ir.sockets``: ``coat0_roughness``), None for a muted layer or an input that
     feeds the model through a conversion: ``derived`` lists those (a kind's Blender hook: the
     conductor's artist colours make its eta and k)."""
 
@@ -110,8 +128,6 @@ def _field_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool
 
 
 def _layer_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool) -> list[FaceInput]:
-    from .kind_hooks import hooks
-
     inputs = _field_inputs(kind, pg, uid, label, layer, shown)
     hook = hooks(kind.type).face_inputs
     return hook(pg, inputs, uid, label) if hook is not None else inputs
@@ -365,8 +381,6 @@ def wire(tree, inputs: list[FaceInput], script, group, live=frozenset()) -> None
     gout.inputs[THICKNESS].default_value = 0.0
     shaders = [n.outputs["BSDF"] for n in (group, script) if n is not None and "BSDF" in n.outputs]
     if script is not None and group is not None:
-        from ..core.backends.osl.emit import ENGINE_SWITCH
-
         mix = nt.nodes.new("ShaderNodeMixShader")
         mix.name = mix.label = SWITCH
         mix.location = (6 * X, 0.0)

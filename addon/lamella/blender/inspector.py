@@ -11,9 +11,12 @@ from __future__ import annotations
 import json
 import math
 
+import bpy
 import numpy as np
 
+from ..core.api import evaluate, lobes
 from ..core.param_id import r_from_alpha
+from . import compiled
 
 SIZE = 160  # preview image is SIZE x SIZE pixels
 N_ANGLES = 181
@@ -29,8 +32,6 @@ def incident(theta: float) -> np.ndarray:
 def slice_values(stack, model: str, theta: float, transmitted: bool) -> tuple[np.ndarray, np.ndarray]:
     """(angles, f * cos) along the plane of incidence: outgoing zenith from -90 to 90 degrees
     (negative on the mirror side) above the surface, and below it for a transmissive base."""
-    from ..core.api import evaluate
-
     t = np.linspace(-math.pi / 2, math.pi / 2, N_ANGLES)
     wo = np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], axis=1)
     wi = np.broadcast_to(incident(theta), wo.shape)
@@ -73,8 +74,6 @@ def draw_slice(values: np.ndarray, theta: float, transmitted: bool) -> np.ndarra
 
 
 def lobe_rows(stack, model: str, theta: float) -> list[dict]:
-    from ..core.api import lobes
-
     lb = lobes(stack, incident(theta), model)
     rows = []
     for k, kind in enumerate(lb.kinds):
@@ -87,8 +86,6 @@ def lobe_rows(stack, model: str, theta: float) -> list[dict]:
 
 
 def _image(mat):
-    import bpy
-
     img = mat.lamella.preview
     if img is None or tuple(img.size) != (SIZE, SIZE):
         img = bpy.data.images.new(f".lamella_preview_{mat.name}"[:63], SIZE, SIZE, alpha=True)
@@ -98,14 +95,10 @@ def _image(mat):
 
 def update(mat) -> None:
     """Refresh the lobe table and the slice preview of ``mat`` from its compiled stack."""
-    import bpy
-
-    from ..core.stack import Stack
-
     s = mat.lamella
     if not s.compiled_json:
         return
-    stack = Stack.from_json(s.compiled_json)
+    stack = compiled.get(mat).stack
     model = s.picked_model or "auto"
     theta = float(s.inspect_angle)
     s.lobes.clear()

@@ -12,15 +12,15 @@ the PropertyGroup; ``face_inputs(pg, inputs, uid, label)``: the layer's inputs o
 Lamella node in place of its fields' (``face.FaceInput``; e.g. the conductor's artist colours,
 converted to eta and k inside the node).
 
-Hooks are registered before the extension registers its properties (the built-in ones below; an
-extension kind's module calls :func:`register` beside ``lamella.core.layers.register``).
+Hooks are registered before the extension registers its properties: the built-in kinds' by
+``lamella.blender`` when it is imported (the coat's ``COAT_HOOKS`` below, the conductor's in
+``conductor_modes``), an extension kind's by its module, which calls :func:`register` beside
+``lamella.core.layers.register``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable
-
-from . import conductor_modes
 
 MEDIUM_ICON = "OUTLINER_DATA_VOLUME"
 
@@ -60,6 +60,4 @@ def _coat_icon(pg) -> str:
     return MEDIUM_ICON if pg.thickness > 0 and any(x > 0 for x in pg.sigma_s) else "MOD_THICKNESS"
 
 
-register("coat", KindHooks(icon=_coat_icon))
-register("conductor", KindHooks(properties=conductor_modes.properties, draw=conductor_modes.draw,
-                                written=conductor_modes.written, face_inputs=conductor_modes.face_inputs))
+COAT_HOOKS = KindHooks(icon=_coat_icon)

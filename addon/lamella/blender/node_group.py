@@ -1,6 +1,6 @@
-"""Build the node group of a stack from its node plan (``lamella.core.backends.node_graph``).
+"""Build the node group of a stack from its node plan (``lamella.core.backends.nodes``).
 
-The group ``Lamella <stack>`` has one input per socket of the model (``core.backends.sockets``: roughness as Blender's r, a colour as one colour socket; named as the Script node's
+The group ``Lamella <stack>`` has one input per socket of the model (``core.backends.ir.sockets``: roughness as Blender's r, a colour as one colour socket; named as the Script node's
 sockets, so textures plug in the same way), a ``Normal`` and a ``Tangent`` input (unlinked: the
 shading normal, and the tangent radial about the object's z, as in the OSL shader) and a ``BSDF``
 output. Inside it:
@@ -18,14 +18,15 @@ content is replaced, and its interface changes only where the parameters changed
 """
 from __future__ import annotations
 
+import hashlib
 from collections import defaultdict
 
 import bpy
 
 from ..core import luts
-from ..core.backends.nodes.plan import Out, Plan, input_name, value_type
-from ..core.backends.nodes.partition import partition
 from ..core.backends.ir.sockets import by_param, sockets
+from ..core.backends.nodes.partition import partition
+from ..core.backends.nodes.plan import Out, Plan, input_name, value_type
 from .osl_compile import set_socket
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
@@ -67,8 +68,6 @@ _DIGESTS: dict = {}
 
 
 def _file_digest(path) -> str:
-    import hashlib
-
     key = str(path)
     if key not in _DIGESTS:
         _DIGESTS[key] = hashlib.sha256(path.read_bytes()).hexdigest()[:16]

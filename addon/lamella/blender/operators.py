@@ -8,13 +8,21 @@ material as it was.
 """
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
+from ..core import presets
+from ..core.backends.osl.bundle import write_bundle
+from ..core.layers import COAT_KINDS
 from ..core.stack import MAX_COATS, Stack, StackError
+from . import api, material_nodes, paths, recompile
 from .animation import following_layers
 from .i18n import rpt_
+from .stack_props import copy_layer, new_uid, write_kind
 
 
 def context_material(context):
@@ -82,8 +90,6 @@ class _MaterialOperator:
         """Compile now and report an error the compile met (the material keeps its last shader);
         the node group waits where no scene renders it (``recompile.flush_groups``), the lobe
         inspector refreshes a tick later (``recompile.schedule_inspector``)."""
-        from . import recompile
-
         if recompile.compile_material(mat, defer_group=not recompile.groups_needed(), inspect=False):
             recompile.schedule_inspector(mat)
         else:
@@ -109,9 +115,6 @@ class LAMELLA_OT_material_new(_MaterialOperator, bpy.types.Operator):
         return None
 
     def run(self, context, _mat):
-        from ..core import presets
-        from . import api, paths
-
         stack = presets.find(self.preset, paths.user_presets_dir()).load()
         mat = bpy.data.materials.new(self.name)
         try:
@@ -137,8 +140,6 @@ class LAMELLA_OT_enable(_MaterialOperator, bpy.types.Operator):
     needs_lamella = False
 
     def run(self, context, mat):
-        from . import api
-
         if mat.lamella.enabled:
             self.report({"INFO"}, rpt_("{material} already is a Lamella material").format(material=mat.name))
             return
@@ -152,8 +153,6 @@ class LAMELLA_OT_disable(_MaterialOperator, bpy.types.Operator):
     bl_label = "Remove Lamella Nodes"
 
     def run(self, context, mat):
-        from . import material_nodes
-
         for node in material_nodes.lamella_nodes(mat):
             mat.node_tree.nodes.remove(node)
         mat.lamella.enabled = False
@@ -167,8 +166,6 @@ class LAMELLA_OT_recompile(_MaterialOperator, bpy.types.Operator):
     bl_label = "Recompile"
 
     def run(self, context, mat):
-        from . import recompile
-
         if not recompile.compile_material(mat):
             self.report({"ERROR"}, "{}: {}".format(mat.name, mat.lamella.status_message))
             return {"CANCELLED"}
@@ -182,8 +179,6 @@ _TEMPLATE_ITEMS: list = []
 
 def template_items(self=None, context=None):
     if not _TEMPLATE_ITEMS:
-        from ..core import presets
-
         _TEMPLATE_ITEMS.extend((t["id"], t["label"], t["description"], t.get("icon", "NONE"), i)
                                for i, t in enumerate(presets.layer_templates()))
     return _TEMPLATE_ITEMS
@@ -198,11 +193,6 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
     template: EnumProperty(name="Layer", description="What kind of coat to add", items=template_items)
 
     def run(self, context, mat):
-        from ..core import presets
-        from ..core.layers import COAT_KINDS
-        from . import recompile
-        from .stack_props import new_uid, write_kind
-
         s = mat.lamella
         if len(s.coats) >= MAX_COATS:
             raise ValueError(rpt_("a stack holds at most {n} coats").format(n=MAX_COATS))
@@ -228,8 +218,6 @@ class LAMELLA_OT_layer_remove(_MaterialOperator, bpy.types.Operator):
     bl_label = "Remove Layer"
 
     def run(self, context, mat):
-        from . import recompile
-
         s = mat.lamella
         if not s.coats:
             raise ValueError(rpt_("there is no coat to remove (the base stays)"))
@@ -251,8 +239,6 @@ class LAMELLA_OT_layer_move(_MaterialOperator, bpy.types.Operator):
     direction: EnumProperty(items=(("UP", "Up", "Toward the top"), ("DOWN", "Down", "Toward the base")))
 
     def run(self, context, mat):
-        from . import recompile
-
         s = mat.lamella
         i = s.active_index
         j = i - 1 if self.direction == "UP" else i + 1
@@ -274,9 +260,6 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
     bl_label = "Duplicate Layer"
 
     def run(self, context, mat):
-        from . import recompile
-        from .stack_props import copy_layer
-
         s = mat.lamella
         if not 0 <= s.active_index < len(s.coats):
             raise ValueError(rpt_("select a coat to duplicate"))
@@ -293,21 +276,49 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
 
 # ---------------------------------------------------------------- presets and files
 _PRESET_ITEMS: list = []
+_SKIPPED_PRESETS: list = []  # (path, why) of the user's preset files that do not load
+_BUILTIN_PRESETS: list = []
+_preset_folder = None  # what the user's preset folder held when the items were made (``_folder_state``)
+
+
+def _folder_state(folder) -> tuple:
+    """The user's preset folder and each preset file's name, size and time: what says whether the
+    files must be read again."""
+    if folder is None:
+        return (None,)
+    try:
+        with os.scandir(folder) as it:
+            files = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns) for e in it if e.name.endswith(".json"))
+    except OSError:
+        files = []
+    return (str(folder), *files)
 
 
 def preset_items(self=None, context=None):
-    """Built-in presets, then the user's (the list object is kept alive, as Blender requires)."""
-    from ..core import presets
-    from . import paths
-
-    _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
-                        for i, p in enumerate(presets.all_presets(paths.user_presets_dir()))]
+    """Built-in presets, then the user's (the list object is kept alive, as Blender requires). The
+    files are read only when the user's folder changed (the built-in ones once), so the menus that
+    list them read nothing else while they draw; the user's files that do not load are
+    ``skipped_presets``."""
+    global _preset_folder
+    folder = paths.user_presets_dir()
+    state = _folder_state(folder)
+    if state != _preset_folder:
+        if not _BUILTIN_PRESETS:
+            _BUILTIN_PRESETS.extend(presets.builtin())
+        user, skipped = presets.scan_user(folder)
+        _PRESET_ITEMS[:] = [(p.id, p.label, p.description, "USER" if not p.builtin else "MATERIAL", i)
+                            for i, p in enumerate(_BUILTIN_PRESETS + user)]
+        _SKIPPED_PRESETS[:] = skipped
+        _preset_folder = state
     return _PRESET_ITEMS
 
 
-def _apply_file_stack(op, mat, stack) -> None:
-    from . import api
+def skipped_presets() -> list:
+    """(path, why) of the user's preset files that do not load, as ``preset_items`` last read them."""
+    return _SKIPPED_PRESETS
 
+
+def _apply_file_stack(op, mat, stack) -> None:
     api.apply_stack(mat, stack)
     op.report({"INFO"}, rpt_("{material}: {stack} applied ({model})").format(
         material=mat.name, stack=stack.name or rpt_("stack"), model=mat.lamella.picked_model))
@@ -323,9 +334,6 @@ class LAMELLA_OT_preset_apply(_MaterialOperator, bpy.types.Operator):
     preset: EnumProperty(name="Preset", items=preset_items)
 
     def run(self, context, mat):
-        from ..core import presets
-        from . import paths
-
         _apply_file_stack(self, mat, presets.find(self.preset, paths.user_presets_dir()).load())
 
 
@@ -342,9 +350,6 @@ class LAMELLA_OT_preset_save(_MaterialOperator, bpy.types.Operator):
         return context.window_manager.invoke_props_dialog(self)
 
     def run(self, context, mat):
-        from ..core import presets
-        from . import api, paths
-
         if not self.name.strip():
             raise ValueError(rpt_("give the preset a name"))
         folder = paths.user_presets_dir()
@@ -368,9 +373,6 @@ class LAMELLA_OT_preset_remove(_MaterialOperator, bpy.types.Operator):
         return None
 
     def run(self, context, _mat):
-        from ..core import presets
-        from . import paths
-
         p = presets.find(self.preset, paths.user_presets_dir())
         if p.builtin:
             raise ValueError(rpt_("{name!r} is a built-in preset").format(name=p.label))
@@ -407,8 +409,6 @@ class LAMELLA_OT_stack_export(_MaterialOperator, bpy.types.Operator, ExportHelpe
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
     def run(self, context, mat):
-        from . import api
-
         text = api.read_stack_json(mat)
         with open(self.filepath, "w", encoding="utf-8") as f:
             f.write(text + "\n")
@@ -431,17 +431,10 @@ class LAMELLA_OT_export_osl(_MaterialOperator, bpy.types.Operator, ExportHelper)
                ("osl-spec", "OSL Specification", "I points toward the surface (the OSL specification)")))
 
     def run(self, context, mat):
-        from pathlib import Path
-
-        from ..core.backends.osl.bundle import write_bundle
-        from . import api
-
-        from .material_nodes import linked_sockets
-
         out = Path(self.filepath)
         shader = write_bundle(Stack.from_dict(api.read_stack(mat)), out.parent, model=mat.lamella.model,
-                              target=self.target_convention, file_name=out.name, live=linked_sockets(mat),
-                              budget=mat.lamella.lobe_budget)
+                              target=self.target_convention, file_name=out.name,
+                              live=material_nodes.linked_sockets(mat), budget=mat.lamella.lobe_budget)
         self.report({"INFO"}, rpt_("wrote {shader} and its tables").format(shader=shader))
 
 
@@ -474,4 +467,16 @@ classes = (
 )
 
 
-register, unregister = bpy.utils.register_classes_factory(classes)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def register():
+    _register_classes()
+    template_items()  # the menus' items read now, not while a menu draws
+    preset_items()
+
+
+def unregister():
+    global _preset_folder
+    _unregister_classes()
+    _preset_folder = None

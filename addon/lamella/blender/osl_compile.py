@@ -9,12 +9,24 @@ keeping the source as an INTERNAL text datablock, so the shader travels with the
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import os
-import struct
 import re
+import shutil
+import struct
+import sys
 import tempfile
 from pathlib import Path
+
+import _cycles
+import bpy
+import cycles.osl
+
+try:  # Blender 4.5 and newer; before, Cycles reads a compiled shader's parameters itself
+    import oslquery
+except ImportError:
+    oslquery = None
 
 
 class OSLCompileError(RuntimeError):
@@ -57,10 +69,6 @@ _fallback: Path | None = None
 def _use_fallback(d: Path, error: OSError) -> Path:
     """Switch the cache to a temporary folder for the rest of the session, saying why once."""
     global _fallback
-    import atexit
-    import shutil
-    import sys
-
     _fallback = Path(tempfile.mkdtemp(prefix="lamella_oso_"))
     atexit.register(shutil.rmtree, _fallback, True)
     print(f"Lamella: the shader cache {d} cannot be written ({error.strerror or error}); shaders compile "
@@ -77,8 +85,6 @@ def source_hash(source: str) -> str:
 def capture_stderr(fn, fds=(2,)):
     """Run ``fn()`` with the C-level stderr (and any other file descriptors in ``fds``: Blender's
     log goes to stdout) captured; returns (result, captured text)."""
-    import sys
-
     sys.stdout.flush()
     sys.stderr.flush()
     saved = [os.dup(fd) for fd in fds]
@@ -118,9 +124,7 @@ def format_errors(source: str, compiler_output: str, name: str, context: int = 2
 def loads(oso: Path) -> bool:
     """Whether Blender can read the compiled shader ``oso`` back (its parameters): a cache entry
     written by another version, cut short or holding a value the reader rejects does not."""
-    try:
-        import oslquery
-    except ImportError:  # Blender before 4.5: no reader; the compiler's own success is the test
+    if oslquery is None:  # Blender before 4.5: no reader; the compiler's own success is the test
         return oso.exists() and oso.stat().st_size > 0
     try:
         return bool(oslquery.OSLQuery(str(oso)))
@@ -131,8 +135,6 @@ def loads(oso: Path) -> bool:
 def compile_source(source: str, name: str = "shader") -> Path:
     """The .oso of ``source``, compiled once per distinct source text. A cached entry that does
     not load (``loads``) is discarded and compiled again. Raises OSLCompileError."""
-    import _cycles
-
     oso = cache_dir() / f"{source_hash(source)}.oso"
     if oso.exists() and oso.stat().st_size > 0:
         if capture_stderr(lambda: loads(oso))[0]:
@@ -187,8 +189,6 @@ def assign_compiled(node, text, source: str, oso: Path, values: dict | None = No
     """``assign_script`` for a shader already compiled to ``oso``. Every input socket named in
     ``values`` takes that value: a socket kept from an earlier shader (and its links) gets the new
     value; the others take the shader's defaults."""
-    import cycles.osl
-
     text.clear()
     text.write(source)
     node.mode = "INTERNAL"
@@ -196,9 +196,7 @@ def assign_compiled(node, text, source: str, oso: Path, values: dict | None = No
     bytecode = oso.read_text()
     node.bytecode = bytecode
     node.bytecode_hash = hashlib.md5(bytecode.encode(), usedforsecurity=False).hexdigest()
-    try:
-        import oslquery
-    except ImportError:  # Blender 4.2 to 4.4: Cycles makes the sockets itself, in C++
+    if oslquery is None:  # Blender 4.2 to 4.4: Cycles makes the sockets itself, in C++
         _update_sockets_in_cycles(node, values or {}, oso)
         return
     query = oslquery.OSLQuery(str(oso))
@@ -226,9 +224,6 @@ def _update_sockets_in_cycles(node, values: dict, oso: Path) -> None:
     """Blender before 4.5 has no ``oslquery`` module: Cycles' ``osl_update_node`` reads the
     shader's parameters and makes (and removes) the sockets; then every input takes the default
     ``source`` declares."""
-    import _cycles
-    import bpy
-
     if not _cycles.osl_update_node(bpy.data.as_pointer(), node.id_data.as_pointer(), node.as_pointer(), str(oso)):
         raise OSLCompileError(f"Cycles failed to read the compiled shader {oso}")
     for sock in node.inputs:

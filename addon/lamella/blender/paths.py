@@ -3,7 +3,10 @@ user's folder for caches and user presets (``bpy.utils.extension_path_user``), n
 extension's folder."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+import bpy
 
 
 def extension_package() -> str | None:
@@ -16,8 +19,6 @@ def extension_package() -> str | None:
 def user_dir() -> Path:
     """The extension's user folder (created): Blender's per-extension folder when installed, a
     ``lamella`` folder in Blender's user configuration otherwise."""
-    import bpy
-
     ext = extension_package()
     if ext is not None:
         return Path(bpy.utils.extension_path_user(ext, create=True))
@@ -25,8 +26,6 @@ def user_dir() -> Path:
     if config:
         return Path(config)
     # Blender run as a module without a user configuration folder: the user's cache folder
-    import os
-
     d = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "lamella"
     d.mkdir(parents=True, exist_ok=True)
     return d

@@ -29,17 +29,13 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from ..core.models import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import r_from_alpha
-from . import kind_hooks
+from . import kind_hooks, recompile
 
 def _on_edit(self, context):
-    from . import recompile
-
     recompile.schedule(self.id_data)
 
 
 def _on_inspect(self, context):
-    from . import recompile
-
     recompile.schedule_inspector(self.id_data)
 
 

@@ -32,14 +32,23 @@ working shader in place and puts the message, which names the layer and field, i
 """
 from __future__ import annotations
 
+import sys
 import time
+import traceback
 from contextlib import contextmanager
 
 import bpy
 from bpy.app.handlers import persistent
 
-from ..core import stack_format
-from . import versioning
+from ..core import luts, stack_format
+from ..core.backends.osl.emit import osl_shader
+from ..core.models import UnsupportedStack
+from ..core.stack import Stack, StackError
+from . import compiled, inspector, material_nodes, versioning
+from .animation import mirror_panel
+from .material_nodes import group_needed, osl_usable
+from .osl_compile import OSLCompileError, compile_source
+from .stack_props import ensure_uids, stack_dict
 
 DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
 GROUP_DELAY = 0.5  # seconds of quiet after an edit before a node group nobody renders is rebuilt
@@ -69,9 +78,6 @@ def _report(mat, what: str, error: Exception) -> None:
     """A failure while handling one material: its status says what failed (the material keeps
     what it had), the traceback goes to the console, and the caller goes on with the next
     material. Handlers never raise: one broken material must not cost another one its edits."""
-    import sys
-    import traceback
-
     print(f"Lamella: {what} of material {getattr(mat, 'name', '?')!r} failed:", file=sys.stderr)
     traceback.print_exception(error, file=sys.stderr)
     try:
@@ -155,8 +161,6 @@ def flush(defer_inspector: bool = False, drag: bool = False) -> None:
             if done and defer_inspector:
                 schedule_inspector(mat)
         else:
-            from . import inspector
-
             _guarded(mat, "the lobe inspector", lambda m=mat: inspector.update(m))
 
 
@@ -181,8 +185,6 @@ def _on_settle_timer():
 
 def groups_needed() -> bool:
     """Whether a scene of the file renders Lamella materials through the node group now."""
-    from .material_nodes import group_needed
-
     return any(group_needed(sc) for sc in bpy.data.scenes)
 
 
@@ -193,16 +195,12 @@ def stale_groups() -> list[str]:
 
 def flush_groups() -> None:
     """Build every node group that waits, from the stack and shader the material shows."""
-    from ..core.stack import Stack
-    from . import material_nodes
-
     work = sorted(_stale_groups)
     _stale_groups.clear()
 
     def build(mat):
-        stack = Stack.from_json(mat.lamella.compiled_json)
-        live = tuple(p for p in mat.lamella.live_params.split(", ") if p)
-        material_nodes.build_group(mat, stack, mat.lamella.model, (live, mat.lamella.lobe_budget))
+        shown = compiled.get(mat)
+        material_nodes.build_group(mat, shown.stack, mat.lamella.model, (shown.live, mat.lamella.lobe_budget))
 
     for key in work:
         mat = _material(key)
@@ -228,10 +226,6 @@ def build_shader(stack, model: str, live=(), budget="auto", partition=None):
     merged to ``budget`` (or grouped as ``partition``, where it fits: ``lobe_budget.merge``):
     (OslShader, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError
     (an unknown model) or OSLCompileError."""
-    from ..core import luts
-    from ..core.backends.osl.emit import osl_shader
-    from .osl_compile import compile_source
-
     shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition,
                         engine_switch=True)
     return shader, compile_source(shader.source, "lamella"), shader.model
@@ -241,8 +235,6 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
     """Put a built shader into ``mat`` and record what it shows. With ``defer_group`` a structure
     change leaves the node group for ``flush_groups`` (a timer, a render or a save); without
     ``inspect`` the lobe inspector is left for the caller to refresh."""
-    from . import inspector, material_nodes
-
     shader, oso, picked = built
     if material_nodes.install(mat, stack, mat.lamella.model, shader, oso, build_group=not defer_group) is None:
         _stale_groups.add(mat.name_full)
@@ -257,6 +249,7 @@ def install(mat, stack, built, t0: float | None = None, defer_group: bool = Fals
         settings.lobes_all = shader.staged.lobes_all
     settings.live_params = ", ".join(shader.live_sockets)
     settings.compiled_json = stack.to_json(indent=None)
+    compiled.record(mat, stack, script=material_nodes.inner_nodes(mat)[1] is not None)
     settings.format = stack_format.FORMAT  # compiled from properties of this Lamella's schema
     settings.status = "OK"
     settings.status_message = ""
@@ -274,12 +267,6 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     of the lobes (module docstring). On failure the status says why and
     the material keeps its shader (with ``raise_errors`` the error is raised too). Returns whether
     it compiled."""
-    from ..core.models import UnsupportedStack
-    from ..core.stack import Stack, StackError
-    from .osl_compile import OSLCompileError
-    from .stack_props import ensure_uids, stack_dict
-    from . import material_nodes
-
     settings = mat.lamella
     t0 = time.perf_counter()
     ensure_uids(settings)
@@ -324,12 +311,53 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     return True
 
 
-def repair_needed(mat) -> str | None:
-    """What is broken in ``mat``'s nodes (``material_nodes.broken``), after preparing the rebuild
-    that repairs it; None if nothing is."""
-    from . import material_nodes
-
+def check_nodes(mat) -> str | None:
+    """What is broken in ``mat``'s nodes (``material_nodes.broken``; a node group that waits for
+    its rebuild is not), or None; recorded for the panel (``compiled.note_nodes``), which shows it
+    without checking anything itself."""
     why = material_nodes.broken(mat, group_pending=mat.name_full in _stale_groups)
+    compiled.note_nodes(mat, why, material_nodes.inner_nodes(mat)[1] is not None)
+    return why
+
+
+_to_check: set[int] = set()  # session_uid of the materials whose nodes the panel wants checked
+
+
+def check_soon(mat) -> None:
+    """Check ``mat``'s nodes on the next tick (``check_nodes``): the panel asks for it where what
+    it shows is stale (``compiled.stale``), and never checks in its draw code."""
+    _to_check.add(mat.session_uid)
+    if not bpy.app.timers.is_registered(_on_check_timer):
+        bpy.app.timers.register(_on_check_timer, first_interval=0.0)
+
+
+def _on_check_timer():
+    work = set(_to_check)
+    _to_check.clear()
+    changed = False
+    for mat in bpy.data.materials:
+        if mat.session_uid in work and mat.lamella.enabled and mat.lamella.compiled_json:
+            before = compiled.shown_nodes(mat)
+            _guarded(mat, "checking the nodes", lambda m=mat: check_nodes(m))
+            changed |= compiled.shown_nodes(mat) != before
+    if changed:
+        _redraw_panels()
+    return None
+
+
+def _redraw_panels() -> None:
+    """Redraw the editors that show the Lamella panel (Properties, the shader editor's sidebar)."""
+    wm = getattr(bpy.context, "window_manager", None)
+    for window in (wm.windows if wm is not None else ()):
+        for area in window.screen.areas:
+            if area.type in ("PROPERTIES", "NODE_EDITOR"):
+                area.tag_redraw()
+
+
+def repair_needed(mat) -> str | None:
+    """What is broken in ``mat``'s nodes (``check_nodes``), after preparing the rebuild that
+    repairs it; None if nothing is."""
+    why = check_nodes(mat)
     if why:
         material_nodes.prepare_repair(mat)
     return why
@@ -338,10 +366,8 @@ def repair_needed(mat) -> str | None:
 def links_changed(mat) -> bool:
     """Whether the sockets linked in ``mat`` differ from those its shader reads live (a
     texture linked or unlinked since the last compile: a structure edit)."""
-    from . import material_nodes
-
     s = mat.lamella
-    return bool(s.enabled and s.compiled_json) and ", ".join(material_nodes.linked_sockets(mat)) != s.live_params
+    return bool(s.enabled and s.compiled_json) and material_nodes.linked_sockets(mat) != compiled.get(mat).live
 
 
 # ---------------------------------------------------------------- handlers
@@ -364,8 +390,6 @@ def _flush_before(*_args):
 def _mirror_animation() -> list:
     """Copy every Lamella material's panel animation onto its Lamella node again (keys may have
     been edited since); returns the materials that have any."""
-    from .animation import mirror_panel
-
     out = []
     for mat in bpy.data.materials:
         if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json and mat.animation_data is not None:
@@ -379,8 +403,6 @@ _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles r
 
 @persistent
 def _before_render(scene, *_args):
-    from .material_nodes import group_needed
-
     _mirror_animation()
     for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
         if never_compiled(mat):
@@ -404,8 +426,6 @@ def _after_depsgraph(scene, depsgraph=None, *_args):
     the scene now renders them (cheap otherwise: one comparison); compile a Lamella
     material that arrives without a shader (``never_compiled``: looked for among the updated data
     only)."""
-    from .material_nodes import group_needed, osl_usable
-
     if depsgraph is not None:
         for update in depsgraph.updates:
             mat = update.id.original
@@ -424,8 +444,6 @@ def _after_load(*_args):
     """A .blend opened: its materials brought to this version (``versioning``: the stack format,
     the layers' identities, an earlier version's nodes moved into the face); the lobe inspectors'
     previews redrawn (images are not saved with their pixels)."""
-    from . import material_nodes
-
     _pending.clear()
     _stale_groups.clear()
     _unsettled.clear()
@@ -457,10 +475,11 @@ def unregister():
         lst = getattr(bpy.app.handlers, name)
         while fn in lst:
             lst.remove(fn)
-    for timer in (_on_timer, _on_group_timer, _on_settle_timer):
+    for timer in (_on_timer, _on_group_timer, _on_settle_timer, _on_check_timer):
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)
     _pending.clear()
     _stale_groups.clear()
     _unsettled.clear()
     _last_compile.clear()
+    _to_check.clear()

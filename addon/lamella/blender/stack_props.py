@@ -12,6 +12,7 @@ import uuid
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import alpha_from_r, r_from_alpha
 from ..core.stack import Stack
+from ..core.stack_format import FORMAT
 from .kind_hooks import hooks
 
 
@@ -99,8 +100,6 @@ def write_stack(settings, stack: Stack) -> None:
     """Replace the material's layers and base by ``stack`` (already validated), stored in the
     current stack format. The coat at each position keeps its identity (the face's inputs, and
     the textures linked into them, stay with the position, as a whole-stack replacement means)."""
-    from ..core.stack_format import FORMAT
-
     settings.format = FORMAT
     settings.stack_name = stack.name
     kept = [item.uid for item in settings.coats]  # the layer at each position keeps its identity

@@ -1,4 +1,5 @@
-"""The Lamella panel: in Material Properties and in the shader editor's sidebar (one draw code).
+"""The Lamella panel: in Material Properties and in the shader editor's sidebar (one poll and draw
+code, ``LamellaPanel``).
 
 Layout, top to bottom (Blender's property split throughout):
 
@@ -13,7 +14,11 @@ Layout, top to bottom (Blender's property split throughout):
   slice preview and the table of lobes).
 
 Fields are drawn from the layer-kind schema, like the properties themselves. Draw functions read
-properties only: they compute nothing and never compile.
+properties, and what was computed before the draw: the compile's products and the last check of
+the material's nodes (``compiled``; a stale check is asked for again, to run after the draw), and
+the menus' items (``operators``, read when the extension registers; the presets' again only when
+a file in the user's preset folder changed). They parse, hash, walk node trees and compile
+nothing.
 """
 from __future__ import annotations
 
@@ -21,12 +26,15 @@ import textwrap
 
 import bpy
 
+from ..core.backends.ir.lobe_budget import MAX_CLOSURES
 from ..core.backends.nodes.svm import SVM_HEADROOM, SVM_STACK, SVM_UNSURE
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, ROUGHNESS
-from .material_nodes import inner_nodes, osl_usable
-from .operators import context_material
+from . import compiled, inspector, recompile
 from .i18n import iface_
-from .kind_hooks import hooks, layer_icon as kind_layer_icon
+from .kind_hooks import hooks
+from .kind_hooks import layer_icon as kind_layer_icon
+from .material_nodes import osl_usable
+from .operators import context_material, preset_items, skipped_presets, template_items
 
 STATUS_ICONS = {"OK": "CHECKMARK", "PENDING": "TIME", "ERROR": "ERROR", "NONE": "INFO"}
 
@@ -43,23 +51,23 @@ def layer_icon(item) -> str:
 
 
 # ---------------------------------------------------------------- pieces
-def _broken(mat) -> str | None:
-    from . import recompile
-    from .material_nodes import broken
-
-    return broken(mat, group_pending=mat.name_full in recompile.stale_groups())
-
-
 def draw_status(layout, context, mat) -> None:
+    """The compile's status and what renders the material in the scene's engine. What the nodes
+    are like is the last check's (``compiled``); where that is stale, a new check is asked for,
+    to run after the draw (``recompile.check_soon``)."""
     s = mat.lamella
+    shown = compiled.peek(mat)
+    nodes = shown.nodes if shown is not None else None  # None: not checked yet
+    if compiled.stale(nodes) and s.compiled_json:
+        recompile.check_soon(mat)
     box = layout.box()
     if s.status == "ERROR":
         box.alert = True
         _wrapped(box, s.status_message.splitlines()[0] if s.status_message else iface_("error"), "ERROR")
         box.label(text="The material keeps its last working shader.", icon="BLANK1")
-    elif s.status == "OK" and (why := _broken(mat)):
+    elif s.status == "OK" and nodes is not None and nodes.why:
         box.alert = True
-        _wrapped(box, iface_("Needs repair: {why}").format(why=why), "ERROR")
+        _wrapped(box, iface_("Needs repair: {why}").format(why=nodes.why), "ERROR")
         box.label(text="Repaired at the next render or edit, or with Recompile.", icon="BLANK1")
     elif s.status == "OK":
         picked = iface_("auto: {model}").format(model=s.picked_model) if s.model == "auto" else s.picked_model
@@ -94,11 +102,12 @@ def draw_status(layout, context, mat) -> None:
                           "render black: check a render, and if it is black unlink an input (baked values cost "
                           "nothing) or use Cycles with OSL on the CPU.")
         note = note.format(**values)
-    elif sc.render.engine == "CYCLES" and inner_nodes(mat)[1] is None:
+    # which of its two shaders Cycles renders is said once the nodes are checked (``nodes``)
+    elif sc.render.engine == "CYCLES" and nodes is not None and not nodes.script:
         note = iface_("Cycles renders the node group: a linked input ({live}) reaches the model's look-up tables, "
                       "which the node group carries inside the file and the OSL shader would read from files "
                       "outside it.").format(live=s.live_params)
-    elif sc.render.engine == "CYCLES":
+    elif sc.render.engine == "CYCLES" and nodes is not None:
         note = iface_("Cycles renders the OSL shader. With Open Shading Language off it renders the node group "
                       "instead (the same image where nothing linked is too large for it), and every shader of the "
                       "scene renders faster.")
@@ -207,6 +216,14 @@ def _draw_field(col, kind, pg, f, enabled_fields) -> None:
         sub.prop(pg, f.name)
 
 
+def _draw_kind(layout, kind, pg, panel_prefix: str) -> None:
+    """One layer of ``kind`` held in ``pg``: its kind's own part (``kind_hooks``), then its schema
+    fields (those the part leaves editable)."""
+    draw_kind = hooks(kind.type).draw
+    enabled = draw_kind(layout, pg) if draw_kind is not None else None
+    draw_fields(layout, kind, pg, panel_prefix, enabled)
+
+
 def draw_active_layer(layout, mat) -> None:
     s = mat.lamella
     item = s.active_layer()
@@ -218,10 +235,7 @@ def draw_active_layer(layout, mat) -> None:
         body.label(text="No coat: add one with +", icon="INFO")
         return
     body.prop(item, "name")
-    kind, pg = COAT_KINDS[item.kind], item.settings()
-    draw_kind = hooks(kind.type).draw
-    enabled = draw_kind(body, pg) if draw_kind is not None else None
-    draw_fields(body, kind, pg, "lamella_layer", enabled)
+    _draw_kind(body, COAT_KINDS[item.kind], item.settings(), "lamella_layer")
 
 
 def draw_base(layout, mat) -> None:
@@ -232,10 +246,7 @@ def draw_base(layout, mat) -> None:
     if body is None:
         return
     body.row().prop(b, "kind", expand=True)
-    pg = b.settings()
-    draw_kind = hooks(kind.type).draw
-    enabled = draw_kind(body, pg) if draw_kind is not None else None  # the kind's own part, then its fields
-    draw_fields(body, kind, pg, "lamella_base", enabled)
+    _draw_kind(body, kind, b.settings(), "lamella_base")
 
 
 def draw_model(layout, mat) -> None:
@@ -255,8 +266,6 @@ def draw_model(layout, mat) -> None:
     if s.lobes_all:
         col.label(text=iface_("{closures} closures for {lobes} lobes").format(closures=s.closures, lobes=s.lobes_all),
                   icon="SHADING_RENDERED", translate=False)
-        from ..core.backends.ir.lobe_budget import MAX_CLOSURES
-
         if s.closures > MAX_CLOSURES:  # only lobes that cannot merge (of different kinds) pass the cap
             _wrapped(col, iface_("Cycles with OSL draws about {n} closures per point and drops the rest: unlink an "
                                  "input, or render with OSL off or in EEVEE.").format(n=MAX_CLOSURES + 1), "ERROR")
@@ -267,8 +276,6 @@ def draw_model(layout, mat) -> None:
 
 
 def draw_inspector(layout, mat) -> None:
-    from . import inspector
-
     s = mat.lamella
     header, body = layout.panel("lamella_inspector", default_closed=True)
     header.label(text="Lobe Inspector")
@@ -336,8 +343,6 @@ class LAMELLA_MT_add_layer(bpy.types.Menu):
     bl_label = "Add Layer"
 
     def draw(self, context):
-        from .operators import template_items
-
         for ident, label, _desc, icon, _i in template_items():
             self.layout.operator("lamella.layer_add", text=label, icon=icon).template = ident
 
@@ -348,8 +353,6 @@ class LAMELLA_MT_presets(bpy.types.Menu):
     bl_label = "Presets"
 
     def draw(self, context):
-        from .operators import preset_items
-
         layout = self.layout
         builtin = True
         for ident, label, _desc, icon, _i in preset_items():
@@ -358,10 +361,7 @@ class LAMELLA_MT_presets(bpy.types.Menu):
                 layout.separator()
                 layout.label(text="User Presets")
             layout.operator("lamella.preset_apply", text=label, icon=icon).preset = ident
-        from ..core.presets import scan_user
-        from .paths import user_presets_dir
-
-        for path, why in scan_user(user_presets_dir())[1]:
+        for path, why in skipped_presets():
             layout.label(text=iface_("Skipped {file}: {why}").format(file=path.name, why=why)[:120], icon="ERROR",
                          translate=False)
 
@@ -382,40 +382,54 @@ class LAMELLA_MT_stack_files(bpy.types.Menu):
         layout.operator("lamella.disable", icon="X")
 
 
-class LAMELLA_PT_material(bpy.types.Panel):
-    """Lamella in Properties > Material."""
+class LamellaPanel:
+    """Mixin: the Lamella panel, one poll and one draw wherever it is shown (as Cycles' panels
+    share theirs between engines); a panel class says where it sits and which material it shows
+    (``shown_material``)."""
 
     bl_label = "Lamella"
+
+    @staticmethod
+    def shown_material(context):
+        raise NotImplementedError
+
+    @classmethod
+    def poll(cls, context):
+        return cls.shown_material(context) is not None
+
+    def draw(self, context):
+        draw_material(self.layout, context, self.shown_material(context))
+
+
+class LAMELLA_PT_material(LamellaPanel, bpy.types.Panel):
+    """Lamella in Properties > Material."""
+
     bl_idname = "LAMELLA_PT_material"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "material"
 
-    @classmethod
-    def poll(cls, context):
-        return getattr(context, "material", None) is not None
-
-    def draw(self, context):
-        draw_material(self.layout, context, context.material)
+    @staticmethod
+    def shown_material(context):
+        return getattr(context, "material", None)
 
 
-class LAMELLA_PT_node_editor(bpy.types.Panel):
+class LAMELLA_PT_node_editor(LamellaPanel, bpy.types.Panel):
     """Lamella in the shader editor's sidebar."""
 
-    bl_label = "Lamella"
     bl_idname = "LAMELLA_PT_node_editor"
     bl_space_type = "NODE_EDITOR"
     bl_region_type = "UI"
     bl_category = "Lamella"
 
-    @classmethod
-    def poll(cls, context):
+    @staticmethod
+    def shown_material(context):
+        """The material whose node tree the editor shows."""
         space = getattr(context, "space_data", None)
-        return (space is not None and getattr(space, "tree_type", "") == "ShaderNodeTree"
-                and isinstance(getattr(space, "id", None), bpy.types.Material))
-
-    def draw(self, context):
-        draw_material(self.layout, context, context.space_data.id)
+        if space is not None and getattr(space, "tree_type", "") == "ShaderNodeTree":
+            mat = getattr(space, "id", None)
+            return mat if isinstance(mat, bpy.types.Material) else None
+        return None
 
 
 classes = (LAMELLA_UL_layers, LAMELLA_MT_add_layer, LAMELLA_MT_presets, LAMELLA_MT_stack_files,

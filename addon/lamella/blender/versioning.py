@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from ..core import stack_format
 from ..core.stack import Stack
+from .stack_props import stack_dict, write_stack
 
 
 def stored_format(settings) -> int:
@@ -35,8 +36,6 @@ def check_loaded(mat) -> str:
     """Bring one loaded material's Lamella data to the current format. Returns what happened:
     ``"current"``, ``"migrated"`` (its stack rewritten; compile it again) or ``"newer"`` (left
     untouched, its status says why)."""
-    from .stack_props import stack_dict, write_stack
-
     settings = mat.lamella
     version = stored_format(settings)
     if version > stack_format.FORMAT:
