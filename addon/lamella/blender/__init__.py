@@ -11,9 +11,9 @@ import sys
 from . import (asset_library, compiled, conductor_modes, kind_hooks, operators, osl_compile, paths, properties,
                recompile, ui)
 
-# the built-in kinds' Blender hooks (an extension kind's module registers its own, before ``register``)
-kind_hooks.register("coat", kind_hooks.COAT_HOOKS)
-kind_hooks.register("conductor", conductor_modes.HOOKS)
+# the built-in kinds' Blender hooks, registered first (an extension kind's module registers its own
+# before the extension registers)
+_HOOKS = (kind_hooks.COAT_HOOKS, conductor_modes.HOOKS)
 
 # registered in this order, unregistered in reverse
 _MODULES = (properties, compiled, recompile, operators, ui, asset_library)
@@ -24,6 +24,8 @@ _exit_hook = False
 def register():
     global _registered, _exit_hook
     osl_compile.set_cache_root(paths.cache_dir())
+    for h in _HOOKS:
+        kind_hooks.register(h)
     for m in _MODULES:
         m.register()
     _registered = True
@@ -43,6 +45,8 @@ def unregister():
         return
     for m in reversed(_MODULES):
         m.unregister()
+    for h in _HOOKS:
+        kind_hooks.unregister(h)
     _registered = False
 
 

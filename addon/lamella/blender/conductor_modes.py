@@ -163,4 +163,4 @@ def gulbrandsen_nodes(nt, r, g):
     return n, k
 
 
-HOOKS = KindHooks(properties=properties, draw=draw, written=written, face_inputs=face_inputs)
+HOOKS = KindHooks("conductor", properties=properties, draw=draw, written=written, face_inputs=face_inputs)

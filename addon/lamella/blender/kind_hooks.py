@@ -22,11 +22,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..core.registry import Registry
+
 MEDIUM_ICON = "OUTLINER_DATA_VOLUME"
 
 
 @dataclass(frozen=True)
 class KindHooks:
+    """The hooks of the layer kind whose ``type`` is ``kind``; each hook is a function or None."""
+
+    kind: str
     properties: Callable[[], dict] | None = None
     draw: Callable | None = None
     icon: Callable | None = None
@@ -34,20 +39,31 @@ class KindHooks:
     face_inputs: Callable | None = None
 
 
-NO_HOOKS = KindHooks()
-HOOKS: dict[str, KindHooks] = {}
+_HOOK_NAMES = ("properties", "draw", "icon", "written", "face_inputs")
 
 
-def register(kind_type: str, hooks: KindHooks) -> None:
-    HOOKS[kind_type] = hooks
+def _complete(h: KindHooks) -> None:
+    if not isinstance(h, KindHooks):
+        raise TypeError(f"a layer kind's Blender hooks are a KindHooks, got {type(h).__name__}")
+    odd = [n for n in _HOOK_NAMES if getattr(h, n) is not None and not callable(getattr(h, n))]
+    if odd:
+        raise TypeError(f"the hooks of layer kind {h.kind!r}: {', '.join(odd)} must be functions or None")
 
 
-def unregister(kind_type: str) -> None:
-    HOOKS.pop(kind_type, None)
+HOOKS: Registry[KindHooks] = Registry("layer kind's Blender hooks", _complete, key=lambda h: h.kind)
+
+
+def register(h: KindHooks) -> KindHooks:
+    """Add the hooks of one layer kind (before the extension registers its properties)."""
+    return HOOKS.register(h)
+
+
+def unregister(h_or_kind) -> None:
+    HOOKS.unregister(h_or_kind)
 
 
 def hooks(kind_type: str) -> KindHooks:
-    return HOOKS.get(kind_type, NO_HOOKS)
+    return HOOKS.get(kind_type) or KindHooks(kind_type)
 
 
 def layer_icon(kind, pg) -> str:
@@ -60,4 +76,4 @@ def _coat_icon(pg) -> str:
     return MEDIUM_ICON if pg.thickness > 0 and any(x > 0 for x in pg.sigma_s) else "MOD_THICKNESS"
 
 
-COAT_HOOKS = KindHooks(icon=_coat_icon)
+COAT_HOOKS = KindHooks("coat", icon=_coat_icon)
