@@ -1,27 +1,23 @@
-"""The node-graph backend: the traced model lowered to Blender shader nodes (docs/design.md "One model,
-three backends"), for EEVEE and for Cycles without OSL (SVM, GPU).
+"""The traced model lowered to Blender shader nodes (docs/design.md "One model, three backends"),
+for EEVEE and for Cycles without OSL (SVM, GPU).
 
 The model is traced once with ``Tracer`` exactly as for OSL; this module lowers the traced graph
 to a plan of Blender nodes, pure data without bpy (``lamella.blender.node_group`` instantiates it):
 
 - every arithmetic node becomes a Math node (``_MATH``), a comparison a Math node giving 0 or 1,
   ``select`` c a + (1 - c) b, ``log`` a Math LOGARITHM to base e: Math nodes only (one
-  node type, evaluated by ``evaluate_plan`` with Blender's semantics);
+  node type, evaluated by ``backends.evaluate.evaluate_plan`` with Blender's semantics);
 - a table look-up becomes Image Texture reads (Linear interpolation, Extend) of the same EXR
   tables the OSL shader reads, at the texel centres of the table's nodes (``_Lowering.lut``), the
   read the OSL helpers ``lamella_tex`` / ``lamella_lut3`` make;
 - every lobe becomes the Blender BSDF node its kind names in the lobe-kind table
-  (``LobeKind.bsdf``), weighted by its energy times the kind's normaliser, as in the OSL shader.
+  (``LobeKind.node``), weighted by its energy times the kind's normaliser, as in the OSL shader.
 
 Math nodes keep Blender's semantics, which differ from the model's ops only where the model
 guards anyway: division by zero gives 0, the square root and logarithm of a non-positive number
-give 0. ``evaluate_plan`` evaluates a plan with those semantics in numpy (float32 by default), so
-tests check the lowering without Blender.
-
-Blender's node editor slows down quadratically with the nodes of one tree (creating a node costs
-time proportional to the tree's size), so ``partition`` cuts the plan into chunks of at most
-``CHUNK_NODES`` nodes, one per section of the model where possible; each chunk becomes a nested
-node group, named by a hash of its content so that an edit rebuilds only the chunks it changes.
+give 0. ``backends.evaluate.evaluate_plan`` evaluates a plan with those semantics in numpy
+(float32 by default), so tests check the lowering without Blender. ``nodes.partition`` cuts the plan
+into nested groups; ``nodes.svm`` says whether Cycles' SVM holds it.
 """
 from __future__ import annotations
 
