@@ -219,11 +219,13 @@ def test_keyframes_and_drivers_on_panel_values_render_and_travel(addon, tmp_path
         sc.frame_set(frame)
         got[frame] = {e: _render_in(sc, b, o) for e, b, o in ENGINES}
     assert mat.lamella.live_params == "coat0_ior, coat0_roughness"
+    linked = new_material(sphere, "panel_linked")  # the same values from the artist's nodes, frame by frame
+    api.apply_stack(linked, stack)
+    roughness = _value_into(linked, api.input_socket(linked, 0, "roughness"), 0.2)
+    ior = _value_into(linked, api.input_socket(linked, 0, "ior"), 1.4)
+    recompile.flush()
     for frame, r in ((1, 0.2), (3, 0.6)):
-        linked = new_material(sphere, f"panel_linked_{frame}")
-        api.apply_stack(linked, stack)
-        _value_into(linked, api.input_socket(linked, 0, "roughness"), r)
-        _value_into(linked, api.input_socket(linked, 0, "ior"), 1.3 + 0.1 * frame)
+        roughness.outputs[0].default_value, ior.outputs[0].default_value = r, 1.3 + 0.1 * frame
         for e, b, o in ENGINES:
             assert _rel(got[frame][e], _render_in(sc, b, o)) < 1e-3, (e, frame)
     assert _rel(got[1]["cycles-osl"], got[3]["cycles-osl"]) > 0.05
