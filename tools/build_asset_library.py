@@ -11,24 +11,11 @@ fails when the library no longer matches the presets or was saved by a newer Ble
 from __future__ import annotations
 
 import sys
-import uuid
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PREVIEW = 128  # pixels
 PREVIEW_SPP = 64
-CATALOGS = {"presets": "Lamella/Presets", "paper": "Lamella/Paper Figures"}
-
-
-def catalog_id(path: str) -> str:
-    """A fixed UUID per catalog path (the library is rebuilt reproducibly)."""
-    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"lamella:{path}"))
-
-
-def catalog_file() -> str:
-    lines = ["# Asset catalogs of the Lamella presets (tools/build_asset_library.py).", "", "VERSION 1", ""]
-    lines += [f"{catalog_id(path)}:{path}:{path.replace('/', '-')}" for path in CATALOGS.values()]
-    return "\n".join(lines) + "\n"
 
 
 def build(out_dir: Path) -> Path:
@@ -64,7 +51,7 @@ def build(out_dir: Path) -> Path:
             mat.lamella.enabled = True
         mat.asset_mark()
         mat.asset_data.description = preset.description
-        mat.asset_data.catalog_id = catalog_id(CATALOGS["paper" if preset.id.startswith("paper_") else "presets"])
+        mat.asset_data.catalog_id = presets.catalog_id(presets.catalog_path(preset))
         mat.asset_data.tags.new("Lamella")
         preview = mat.preview_ensure()
         preview.image_size = (PREVIEW, PREVIEW)
@@ -73,7 +60,8 @@ def build(out_dir: Path) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / LIBRARY_FILE.name
     bpy.data.libraries.write(str(path), set(assets), fake_user=True, compress=True)
-    (out_dir / "blender_assets.cats.txt").write_text(catalog_file())
+    (out_dir / "blender_assets.cats.txt").write_text(
+        presets.catalog_file("Asset catalogs of the Lamella presets (tools/build_asset_library.py)."))
     return path
 
 

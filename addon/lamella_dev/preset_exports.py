@@ -18,15 +18,25 @@ folders, made by ``lamella export-presets`` (``make exports``).
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
+import numbers
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
-import uuid
+import tomllib
 from pathlib import Path
+
+import numpy as np
+
+from lamella.core import luts, presets
+from lamella.core.backends.nodes.lower import emit_plan
+from lamella.core.backends.osl.bundle import TABLES_DIR, write_bundle
+from lamella.core.backends.osl.emit import VIEW_TARGETS, osl_shader
+from lamella.core.models import resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 OSL_DIR = ROOT / "osl"
@@ -40,16 +50,11 @@ REGENERATE = "make exports"
 # Bumped when the way a group is made from what ``compile_digest`` covers changes (the face's
 # wiring, the node group's building, what the export strips): the manifest then reads as stale.
 EXPORT_LAYOUT = 1
-# The same catalogs as the material presets' asset library (tools/build_asset_library.py: the same
-# paths and UUIDs, so Blender shows one "Lamella/Presets" catalog holding both kinds of asset).
-CATALOGS = {"presets": "Lamella/Presets", "paper": "Lamella/Paper Figures"}
 PREVIEW = 128  # pixels
 PREVIEW_SPP = 32
 
 
 def _presets():
-    from lamella.core import presets
-
     return presets.builtin()
 
 
@@ -68,8 +73,6 @@ def shader_file(preset) -> str:
 def write_osl(out_dir: Path = OSL_DIR) -> list[Path]:
     """Write ``osl/``: every preset's bundle for every view target, and the README. The target
     folders are written anew (a preset removed leaves no bundle behind). Returns the shaders."""
-    from lamella.core.backends.osl.emit import VIEW_TARGETS
-    from lamella.core.backends.osl.bundle import write_bundle
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -84,9 +87,6 @@ def write_osl(out_dir: Path = OSL_DIR) -> list[Path]:
 
 
 def osl_readme(out_dir: Path) -> str:
-    from lamella.core.backends.osl.emit import VIEW_TARGETS
-    from lamella.core.backends.osl.bundle import TABLES_DIR
-    from lamella.core.models import resolve
 
     lines = [
         "# OSL: every preset as a standalone shader",
@@ -160,15 +160,10 @@ def osl_changes(committed: Path = OSL_DIR) -> list[str]:
 
 
 # ---------------------------------------------------------------- node_groups/: what a group is built from
-def catalog_id(path: str) -> str:
-    """A fixed UUID per catalog path: tools/build_asset_library.py's, so both libraries share them."""
-    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"lamella:{path}"))
-
-
 def catalog_file() -> str:
-    lines = ["# Asset catalogs of the Lamella node groups (lamella export-presets).", "", "VERSION 1", ""]
-    lines += [f"{catalog_id(path)}:{path}:{path.replace('/', '-')}" for path in CATALOGS.values()]
-    return "\n".join(lines) + "\n"
+    """The node groups' catalogs: the material presets' (``presets.CATALOGS``, the same UUIDs, so
+    Blender shows one "Lamella/Presets" catalog holding both kinds of asset)."""
+    return presets.catalog_file("Asset catalogs of the Lamella node groups (lamella export-presets).")
 
 
 def group_name(preset) -> str:
@@ -182,8 +177,6 @@ def stack_digest(stack) -> str:
 def _canonical(obj):
     """``obj`` as plain JSON values, whatever numpy's scalars print as (numpy 2 writes
     ``np.float64(0.5)``, numpy 1 ``0.5``: the library is built under the oldest Blender's numpy)."""
-    import dataclasses
-    import numbers
 
     if dataclasses.is_dataclass(obj):
         return [type(obj).__name__, _canonical(dataclasses.asdict(obj))]
@@ -205,11 +198,7 @@ def compile_digest(stack) -> str:
     OSL source of its Script node and the node plan of its node group (nodes, closures, the table's
     pixels), with the layout versions of the tables and of this export. No bpy: the test recomputes it
     in any Python."""
-    import numpy as np
 
-    from lamella.core import luts
-    from lamella.core.backends.nodes.lower import emit_plan
-    from lamella.core.backends.osl.emit import osl_shader
 
     # as recompile.build_shader and material_nodes.install_group (the lobe budget's default "auto");
     # the table folder and the image name are placeholders: neither is part of what renders
@@ -229,7 +218,6 @@ def compile_digest(stack) -> str:
 
 def manifest_entry(preset) -> dict:
     """The manifest's record of ``preset``: what its group is and what it was built from."""
-    from lamella.core.models import resolve
 
     stack = preset.load()
     return {
@@ -237,7 +225,7 @@ def manifest_entry(preset) -> dict:
         "label": preset.label,
         "description": preset.description,
         "group": group_name(preset),
-        "catalog": CATALOGS["paper" if preset.id.startswith("paper_") else "presets"],
+        "catalog": presets.catalog_path(preset),
         "model": resolve("auto", stack).name,
         "transmits": bool(stack.base.kind.transmits),
         "stack_sha256": stack_digest(stack),
@@ -285,7 +273,6 @@ def _strip(tree, preset) -> None:
 
 
 def _preview(render_scene, sc) -> "object":
-    import numpy as np
 
     from .image_metrics import display_srgb
 
@@ -299,10 +286,8 @@ def build_node_groups(out_dir: Path, previews: bool = True) -> Path:
     as an asset with its catalog, description and a preview (the sphere rendered with that
     material in Cycles with OSL), and written with everything it reads into ``LIBRARY_FILE``; then
     the catalogs, the manifest and the README."""
-    import tomllib
 
     import bpy
-    import numpy as np
 
     from lamella.blender import api, material_nodes, register
 
@@ -338,7 +323,7 @@ def build_node_groups(out_dir: Path, previews: bool = True) -> Path:
         entry = manifest_entry(p)
         tree.asset_mark()
         tree.asset_data.description = p.description
-        tree.asset_data.catalog_id = catalog_id(entry["catalog"])
+        tree.asset_data.catalog_id = presets.catalog_id(entry["catalog"])
         tree.asset_data.tags.new("Lamella")
         if p.id in pixels:
             preview = tree.preview_ensure()

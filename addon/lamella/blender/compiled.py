@@ -31,6 +31,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from ..core.stack import Stack
+from . import app_handlers
 
 NODES_RECHECK = 1.0  # seconds after which the panel has a material's nodes checked again
 
@@ -151,15 +152,9 @@ _HANDLERS = (("load_post", _forget_all), ("undo_post", _forget_all), ("redo_post
 
 
 def register():
-    for name, fn in _HANDLERS:
-        lst = getattr(bpy.app.handlers, name)
-        if fn not in lst:
-            lst.append(fn)
+    app_handlers.add(_HANDLERS)
 
 
 def unregister():
-    for name, fn in _HANDLERS:
-        lst = getattr(bpy.app.handlers, name)
-        while fn in lst:
-            lst.remove(fn)
+    app_handlers.remove(_HANDLERS)
     clear()

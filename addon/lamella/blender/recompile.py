@@ -44,7 +44,7 @@ from ..core import luts, stack_format
 from ..core.backends.osl.emit import osl_shader
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack, StackError
-from . import compiled, inspector, material_nodes, versioning
+from . import app_handlers, compiled, inspector, material_nodes, versioning
 from .animation import mirror_panel
 from .material_nodes import group_needed, osl_usable
 from .osl_compile import OSLCompileError, compile_source
@@ -464,17 +464,11 @@ _HANDLERS = (("render_pre", _before_render), ("save_pre", _flush_before), ("load
 
 
 def register():
-    for name, fn in _HANDLERS:
-        lst = getattr(bpy.app.handlers, name)
-        if fn not in lst:
-            lst.append(fn)
+    app_handlers.add(_HANDLERS)
 
 
 def unregister():
-    for name, fn in _HANDLERS:
-        lst = getattr(bpy.app.handlers, name)
-        while fn in lst:
-            lst.remove(fn)
+    app_handlers.remove(_HANDLERS)
     for timer in (_on_timer, _on_group_timer, _on_settle_timer, _on_check_timer):
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)

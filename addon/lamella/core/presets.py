@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -100,3 +101,25 @@ def layer_templates() -> list[dict]:
     """Coat templates of the panel's add menu: ``id``, ``label``, ``description``, ``icon`` and
     ``layer`` (a coat as in the stack description)."""
     return json.loads(TEMPLATES_FILE.read_text())["templates"]
+
+
+# ---------------------------------------------------------------- asset catalogs
+CATALOGS = {"presets": "Lamella/Presets", "paper": "Lamella/Paper Figures"}  # what the asset libraries show
+
+
+def catalog_path(preset: Preset) -> str:
+    """The asset catalog a built-in preset is listed under: the papers' figures, or the presets."""
+    return CATALOGS["paper" if preset.id.startswith("paper_") else "presets"]
+
+
+def catalog_id(path: str) -> str:
+    """A fixed UUID per catalog path: every library built from the presets (the materials, the node
+    groups) shares them, so Blender shows one tree of catalogs, and a rebuild is reproducible."""
+    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"lamella:{path}"))
+
+
+def catalog_file(title: str) -> str:
+    """The text of a ``blender_assets.cats.txt`` listing ``CATALOGS``, under a comment ``title``."""
+    lines = [f"# {title}", "", "VERSION 1", ""]
+    lines += [f"{catalog_id(path)}:{path}:{path.replace('/', '-')}" for path in CATALOGS.values()]
+    return "\n".join(lines) + "\n"
