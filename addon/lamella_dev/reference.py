@@ -528,13 +528,45 @@ def _dirs(w):
     return w[None, :] if w.ndim == 1 else w
 
 
+def covered_parts(stack) -> list[tuple[float, Stack]]:
+    """(fraction of the surface, the stack there) for a stack with partly covering coats: each
+    coat of coverage c is present on a fraction c, independently of the others, so each subset
+    of them is present on the product of their coverages and the others' complements (lateral
+    transport between the parts neglected). Subsets of zero area are left out; a stack whose coats
+    all cover everything is one part of fraction 1."""
+    stack = Stack.coerce(stack)
+    partial = [i for i, c in enumerate(stack.coats) if c.coverage < 1.0]
+    out = []
+    for mask in range(2 ** len(partial)):
+        here = {i for b, i in enumerate(partial) if mask >> b & 1}
+        w = math.prod(stack.coats[i].coverage if i in here else 1.0 - stack.coats[i].coverage for i in partial)
+        if w > 0.0:
+            out.append((w, stack.part([i for i in range(len(stack.coats)) if i not in partial or i in here])))
+    return out
+
+
+def _mixed(parts, run):
+    """The mix of ``run(stack) -> (mean, stderr)`` over ``covered_parts``: means weighted by the
+    fractions, standard errors combined as independent estimates."""
+    mean = err2 = 0.0
+    for w, part in parts:
+        m, e = run(part)
+        mean = mean + w * m
+        err2 = err2 + (w * e) ** 2
+    return mean, np.sqrt(err2)
+
+
 def eval_brdf_cos(stack, wi, wo, spp: int, seed: int = 0, interfaces: str = "single"):
     """Stochastic f(wi, wo) |wo.z| for each row of ``wo`` ((N, 3); ``wi`` (3,) or (N, 3)):
     returns (mean, stderr), each (N, 3). Lower-hemisphere ``wo`` is transmission into the
     dielectric base's substrate (density per solid angle there). ``interfaces``: "single" (rough
     interfaces scatter once, pbrt-v4's convention) or "multiple" (Heitz et al. 2016's walk on the
-    microsurface, energy conserving: ``microsurface``)."""
-    L = _Layers(Stack.coerce(stack), interfaces)
+    microsurface, energy conserving: ``microsurface``). Partly covering coats: the mix of the
+    walks of each part (``covered_parts``)."""
+    parts = covered_parts(stack)
+    if len(parts) > 1 or parts[0][0] != 1.0:
+        return _mixed(parts, lambda part: eval_brdf_cos(part, wi, wo, spp, seed, interfaces))
+    L = _Layers(parts[0][1], interfaces)
     wo = _dirs(wo)
     wi = np.broadcast_to(_dirs(wi), wo.shape)
     P = wo.shape[0]
@@ -564,7 +596,10 @@ def albedo(stack, wi, spp: int, seed: int = 0, side: str = "reflected", exclude_
     ``interfaces``: as for ``eval_brdf_cos``."""
     if side not in ("reflected", "transmitted"):
         raise ValueError(f"side must be 'reflected' or 'transmitted', got {side!r}")
-    L = _Layers(Stack.coerce(stack), interfaces)
+    parts = covered_parts(stack)
+    if len(parts) > 1 or parts[0][0] != 1.0:
+        return _mixed(parts, lambda part: albedo(part, wi, spp, seed, side, exclude_delta, interfaces))
+    L = _Layers(parts[0][1], interfaces)
     wi = _dirs(wi)
     rng = np.random.default_rng(seed)
     means, errs = [], []

@@ -223,11 +223,25 @@ def render_stack(stack, scene="sphere-env", sun_dir=DEFAULT_SUN_DIR, res=96, spp
     render seconds). Writes a linear float EXR to ``out`` if given. ``engine="reference"`` builds
     the stack as nested interface spheres (reference_scene) of shell ``thickness``; ``open_back``
     as in ``build_scene``; ``model`` the layered model of the cycles-osl shader; ``interfaces`` the
-    reference's rough interfaces (``reference_scene.INTERFACES``)."""
+    reference's rough interfaces (``reference_scene.INTERFACES``). A reference of a stack with partly
+    covering coats is the mix of its parts' references (``reference.covered_parts``)."""
     from lamella.core.exr import write_rgba
     from lamella.core.stack import Stack
 
     stack = Stack.coerce(stack)
+    if engine == "reference":
+        from .reference import covered_parts
+
+        parts = covered_parts(stack)
+        if len(parts) > 1 or parts[0][0] != 1.0:  # partly covering coats: the mix of each part's spheres
+            px, seconds = 0.0, 0.0
+            for w, part in parts:
+                p, s = render_stack(part, scene, sun_dir, res, spp, engine, None, filter_width, seed, thickness,
+                                    open_back, model, budget, staged, interfaces)
+                px, seconds = px + w * p, seconds + s
+            if out is not None:
+                write_rgba(out, px)
+            return px, seconds
     sc, sphere = build_scene(scene, res, spp, sun_dir, seed=seed, open_back=open_back)
     if filter_width is not None:
         sc.cycles.filter_width = filter_width

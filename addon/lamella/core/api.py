@@ -14,7 +14,8 @@ import numpy as np
 from . import lobe_kinds
 from .backends.numpy_ops import NumpyOps
 from .models import MODELS as _REGISTRY
-from .models import UnsupportedStack, resolve
+from .models import UnsupportedStack, resolve, run_model
+from .models.types import Lobe
 from .stack import Stack
 
 MODELS = ("auto", *_REGISTRY)
@@ -49,7 +50,15 @@ def _run(stack, wi, model, dtype):
     ops = NumpyOps(dtype)
     wi = _dirs(wi, ops.dtype)
     wi_vals = tuple(ops.input(n, wi[:, k]) for k, n in enumerate(("wi_x", "wi_y", "wi_z")))
-    return ops, v, wi_vals, v.run(ops, stack, wi_vals)
+    # a partly covering coat's lobes weigh the fraction of the surface they are on
+    ls = [lobe if _is_one(lobe.cover) else
+          Lobe(lobe.weight * lobe.cover, lobe.alpha_x, lobe.alpha_y, lobe.rotation, lobe.kind, lobe.eta)
+          for lobe in run_model(ops, stack, wi_vals, model)]
+    return ops, v, wi_vals, ls
+
+
+def _is_one(x) -> bool:
+    return isinstance(x, float) and x == 1.0
 
 
 def _full(x, n, dtype):

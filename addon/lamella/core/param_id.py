@@ -107,8 +107,9 @@ class LayerSlot:
 
 
 def slots(stack) -> tuple[list[LayerSlot], LayerSlot]:
-    """The slots of ``stack``'s coats (top first) and of its base."""
-    return ([LayerSlot(i, c.kind.fields) for i, c in enumerate(stack.coats)],
+    """The slots of ``stack``'s coats (top first) and of its base. A part of a stack
+    (``Stack.part``) names its coats by their indices in the whole stack."""
+    return ([LayerSlot(stack.layer_index(i), c.kind.fields) for i, c in enumerate(stack.coats)],
             LayerSlot(None, stack.base.kind.fields))
 
 

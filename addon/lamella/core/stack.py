@@ -9,7 +9,7 @@ entry point (UI, JSON, Python API, CLI) can show it as is.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 from . import stack_format
@@ -29,6 +29,9 @@ class Stack:
     coats: tuple[Coat, ...]
     base: Base
     name: str = ""
+    # a part of a stack (``part``): the index each coat has in the stack it was taken from, so its
+    # parameters keep their names (``coat2_ior`` stays coat 2's); empty: the coats' own positions
+    origin: tuple[int, ...] = ()
 
     # ----------------------------------------------------------------- construction
     @classmethod
@@ -85,6 +88,19 @@ class Stack:
 
     def to_json(self, indent: int | None = 2) -> str:
         return json.dumps(self.to_dict(), indent=indent)
+
+    def part(self, kept) -> "Stack":
+        """The stack where only the coats whose indices are in ``kept`` are present, over the same
+        base (``models.coverage``): those coats, each covering the whole of it. Its parameters are
+        named by the coats' indices here (``origin``)."""
+        kept = tuple(sorted(kept))
+        coats = tuple(replace(self.coats[i], coverage=1.0) if self.coats[i].coverage != 1.0 else self.coats[i]
+                      for i in kept)
+        return Stack(coats=coats, base=self.base, name=self.name, origin=tuple(self.layer_index(i) for i in kept))
+
+    def layer_index(self, i: int) -> int:
+        """The index coat ``i`` of this stack has in the stack it was taken from (``part``)."""
+        return self.origin[i] if self.origin else i
 
     # ----------------------------------------------------------------- structure queries
     @property

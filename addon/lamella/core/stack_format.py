@@ -16,17 +16,26 @@ from typing import Any, Callable, Mapping
 
 from .layers.schema import StackError
 
-FORMAT = 1  # the format this Lamella writes
+FORMAT = 2  # the format this Lamella writes
 KEY = "format"
 
 # What each version changed, newest last: the reference page prints it.
 CHANGES: dict[int, str] = {
     1: "The first versioned format: coats top to bottom under `layers`, a `base` of kind conductor, diffuse or "
        "dielectric, an optional `name`. Stacks written without a `format` key are read as format 1.",
+    2: "Coats gain `coverage`, the fraction of the surface a coat covers (0 to 1; a format-1 coat covers all of it, "
+       "coverage 1).",
 }
 
-# v -> the function taking a format-v stack dict to format v + 1 (none yet: format 1 is the first)
-MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
+
+def _coverage_whole(d: dict) -> dict:
+    """Format 1 to 2: every coat covers the whole surface, which is what a coat without a
+    ``coverage`` reads as (the field's default, 1), so the stack passes as it is."""
+    return dict(d)
+
+
+# v -> the function taking a format-v stack dict to format v + 1
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {1: _coverage_whole}
 
 
 def version_of(d: Mapping[str, Any]) -> int:

@@ -13,7 +13,7 @@ model that runs it, in float32 (and a sample in float64):
 - f cos at a random outgoing direction finite and not negative.
 
 Stacks that share a structure (``closures.structure_of``: coats, base kind, which layers are
-anisotropic, absorbing or scattering) trace to one graph, so a batch of them is evaluated at once
+anisotropic, absorbing, scattering or partly covering) trace to one graph, so a batch of them is evaluated at once
 with its parameters as arrays: the graph is exactly what a single stack's evaluation runs. A
 sample of stacks also goes through the baked path (``staging.stage`` and ``evaluate_staged``, the
 shaders' table and closures, float32). A failing stack is shrunk (coats removed, fields set back
@@ -49,6 +49,7 @@ from lamella.core import api as core_api
 from lamella.core.backends.ir.closures import declared_params, structure_of, trace_closures
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.layers import BASE_KINDS
+from lamella.core.models.coverage import MAX_PARTIAL
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
 from lamella.core.models import UnsupportedStack
 from lamella.core.stack import MAX_COATS, Stack
@@ -113,8 +114,10 @@ def draw_structure(rng) -> dict:
     """A structure: the number of coats, the base kind, and per layer whether it is anisotropic,
     absorbing, scattering."""
     n = int(rng.choice([0, 1, 2, MAX_COATS])) if rng.random() < 0.5 else int(rng.integers(0, MAX_COATS + 1))
-    coats = [{"aniso": rng.random() < 0.3, "absorbing": rng.random() < 0.35, "scattering": rng.random() < 0.3}
-             for _ in range(n)]
+    coats = [{"aniso": rng.random() < 0.3, "absorbing": rng.random() < 0.35, "scattering": rng.random() < 0.3,
+              "partial": False} for _ in range(n)]
+    for i in rng.permutation(n)[:int(rng.integers(0, MAX_PARTIAL + 1))] if n else ():
+        coats[int(i)]["partial"] = rng.random() < 0.5  # a coat on part of the surface (models.coverage)
     base = str(rng.choice(list(BASE_KINDS)))
     return {"coats": coats, "base": base, "aniso": rng.random() < 0.3}
 
@@ -133,6 +136,8 @@ def draw_stack(rng, structure: dict) -> dict:
         if c["scattering"]:
             d["sigma_s"] = _positive_rgb(rng, [0.0] + sigma_edges, sigma_usual)
             d["g"] = _pick(rng, [0.0, 0.999, -0.999, G_MAX, -G_MAX], lambda: rng.uniform(-0.99, 0.99))
+        if c.get("partial"):
+            d["coverage"] = _pick(rng, [0.0, 1e-7, 0.5, 1.0 - 1e-7], rng.random)
         layers.append(d)
     kind = structure["base"]
     base = {"type": kind}
@@ -175,7 +180,7 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
         values[name] = wi[..., k].reshape(-1).astype(dtype)
     ops = NumpyOps(dtype)
     outs = []
-    for c in traced.closures:
+    for c in traced.covered:  # weights times the fraction of the surface each is on (models.coverage)
         outs += [*c.lobe.weight, *c.weight, *c.args.values()]
     with np.errstate(all="ignore"):
         got = t.evaluate(outs, ops, values)
@@ -188,7 +193,7 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
     total = np.zeros((n * d, 3), dtype=np.float64)
     wi_o = tuple(values[k] for k in ("wi_x", "wi_y", "wi_z"))
     wo_o = tuple(wo[..., k].reshape(-1).astype(dtype) for k in range(3))
-    for c in traced.closures:
+    for c in traced.covered:
         energy = np.stack([v(x) for x in c.lobe.weight], -1)
         weight = np.stack([v(x) for x in c.weight], -1)
         args = {k: v(x) for k, x in c.args.items()}

@@ -16,6 +16,8 @@ FIELDS = (
           "GGX alpha", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the interface's anisotropy axes about the normal", "rad",
           lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
+    Field("coverage", FLOAT, 1.0, "fraction of the surface the coat covers: where it is absent the layers below "
+          "show (a mask linked here paints it)", "", lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("thickness", FLOAT, 0.0, "thickness of the interior medium", "length", lo=0.0, hi=THICKNESS_MAX,
           soft=(0.0, 10.0),
           group="Medium"),

@@ -215,7 +215,8 @@ class LayerKind:
 
 # What the models read from a coat besides its params (``Stack`` and ``choose_auto`` read them to
 # decide a stack's structure): a coat kind's fields or ``namespace`` properties must provide these.
-COAT_ATTRIBUTES = ("ior", "roughness", "has_absorption", "has_scattering", "is_smooth")
+# A coat kind without a ``coverage`` field covers the whole surface (``coverage`` 1).
+COAT_ATTRIBUTES = ("ior", "roughness", "has_absorption", "has_scattering", "is_smooth", "coverage")
 
 
 def _is_smooth(layer) -> bool:
@@ -246,6 +247,8 @@ def layer_kind(type_name: str, role: str, class_name: str, fields_: tuple[Field,
         raise ValueError(f"{type_name}: a layer with an interface needs 'roughness' and 'rotation' fields")
     if role == "coat":
         namespace.setdefault("is_smooth", property(_is_smooth))
+        if "coverage" not in names:
+            namespace.setdefault("coverage", 1.0)
         missing = [a for a in COAT_ATTRIBUTES if a not in names and a not in namespace]
         if not interface or missing:
             raise ValueError(f"{type_name}: a coat has an interface and provides {', '.join(COAT_ATTRIBUTES)} "

@@ -9,6 +9,7 @@ the lobe-kind table (``lamella.core.lobe_kinds``).
 from __future__ import annotations
 
 from ..registry import Registry, require_callables
+from . import coverage
 from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, Variant
 from .endf import ENDF
 from .rgb import RGB
@@ -98,8 +99,11 @@ def variant(name: str, mapping: str | None = None, tir: bool | None = None) -> V
     return v
 
 
-def run_model(ops, stack, wi, model) -> list[Lobe]:
-    return resolve(model, stack).run(ops, stack, wi)
+def run_model(ops, stack, wi, model, partial=None) -> list[Lobe]:
+    """The lobes of ``stack`` under ``model`` (a name, ``"auto"`` or a model object), with the
+    partly covering coats (``coverage.partial_coats``; ``partial`` overrides) mixed in: each
+    lobe's ``cover`` is the fraction of the surface it is on."""
+    return coverage.run(ops, stack, wi, model, resolve, partial)
 
 
 __all__ = ["Lobe", "UnsupportedStack", "Variant", "MODELS", "VARIANTS", "register", "unregister", "choose_auto",

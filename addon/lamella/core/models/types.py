@@ -20,7 +20,9 @@ class UnsupportedStack(ValueError):
 class Lobe:
     """A lobe of a model, in backend values: energy (RGB), roughness along its own axes, the
     angle of those axes from the shading tangent, its kind (a name of ``lamella.core.lobe_kinds``)
-    and, for a transmission lobe, the index of the medium it enters relative to vacuum above."""
+    and, for a transmission lobe, the index of the medium it enters relative to vacuum above.
+    ``cover`` is the fraction of the surface the lobe is on (a part of a stack with partly
+    covering coats, ``models.coverage``): the material reflects ``cover * weight``."""
 
     weight: RGB
     alpha_x: object
@@ -28,6 +30,7 @@ class Lobe:
     rotation: object
     kind: str = "reflection"
     eta: object = 1.0
+    cover: object = 1.0
 
 
 def layer_params(ops, stack):

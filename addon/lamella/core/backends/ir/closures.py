@@ -3,15 +3,19 @@
 Both emitters trace the one model the same way: the stack's model (``resolve``) runs on a
 ``Tracer`` with the view direction ``wi_x``/``wi_y``/``wi_z`` in the local frame as inputs, and
 every lobe it returns becomes a closure of its kind (``lamella.core.lobe_kinds``), weighted by
-its energy times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al. 2021 Eq. 37).
+its energy times the kind's normaliser (for GGX, 1 / GD: Randrianandrasana et al. 2021 Eq. 37)
+and by the fraction of the surface it is on (``cover``: a stack with partly covering coats,
+``models.coverage``; staging keeps it apart from the weight, so lobes merge only with lobes of
+their own part).
 """
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ... import lobe_kinds
-from ...models import resolve
+from ...models import resolve, run_model
+from ...models.coverage import cover_params, partial_coats
 from ...models.types import layer_params
 from ...stack import Stack
 from .trace import Tracer
@@ -20,13 +24,23 @@ from .trace import Tracer
 @dataclass
 class Closure:
     """One lobe as a closure: its kind's table entry, its weight (three traced values: energy x
-    normaliser) and its arguments (named traced values, ``LobeKind.args``)."""
+    normaliser), its arguments (named traced values, ``LobeKind.args``) and ``cover``, the
+    fraction of the surface it is on (a traced value, or 1.0), which the shader multiplies the
+    weight by (``covered``)."""
 
     lobe: object
     kind: lobe_kinds.LobeKind
     weight: tuple
     args: dict
     label: str
+    cover: object = 1.0
+
+    def covered(self, t) -> "Closure":
+        """This closure with its weight times its ``cover`` (made in tracer ``t``)."""
+        if isinstance(self.cover, float) and self.cover == 1.0:
+            return self
+        lobe = replace(self.lobe, weight=self.lobe.weight * self.cover, cover=1.0)
+        return Closure(lobe, self.kind, tuple(w * self.cover for w in self.weight), self.args, self.label, 1.0)
 
 
 @dataclass
@@ -35,59 +49,69 @@ class TracedClosures:
     model: str
     tracer: Tracer
     wi: tuple
-    closures: list
+    closures: list  # their weights without ``cover``
+    partial: tuple = ()  # the partly covering coats (``models.coverage.partial_coats``)
+    covered: list | None = None  # the closures with their weights times ``cover`` (the whole model)
 
 
-def declared_params(stack) -> dict:
+def declared_params(stack, partial=None) -> dict:
     """Parameter name -> value of ``stack``, as its layer kinds declare them (``layers.params``),
-    in the order they declare them. A kind's ``params`` may compute with its parameters (a colour
+    in the order they declare them, then the coverages of its ``partial`` coats (default: those
+    below 1, ``models.coverage``). A kind's ``params`` may compute with its parameters (a colour
     turned into an absorption), so they are traced, which costs only those few nodes."""
     t = Tracer()
     layer_params(t, stack)
+    cover_params(t, stack, partial_coats(stack) if partial is None else partial)
     return dict(t.defaults)
 
 
-def structure_of(stack, model: str = "auto") -> tuple:
+def structure_of(stack, model: str = "auto", partial=None) -> tuple:
     """What the traced graph of ``stack`` depends on: the model asked for and the names of the
     parameters its layers declare. The models branch only on the stack's structure (the number of
     coats, the base's kind, which layers are isotropic, absorbing or scattering), every one of
     which shows in those names; every value reaches the graph as a parameter. So two stacks of one
-    structure trace to the same graph with other defaults."""
-    return (model, stack.base.type, len(stack.coats), tuple(declared_params(stack)))
+    structure trace to the same graph with other defaults. The partly covering coats
+    (``partial``, default those with coverage below 1: ``models.coverage``) declare a coverage
+    parameter each, so they show in the names too."""
+    return (model, stack.base.type, len(stack.coats), tuple(declared_params(stack, partial)))
 
 
 _TRACES: dict = {}  # structure_of -> TracedClosures: a value edit does not trace again
 _TRACES_KEPT = 16
 
 
-def trace_closures(stack, model: str = "auto") -> TracedClosures:
+def trace_closures(stack, model: str = "auto", live=()) -> TracedClosures:
     """Trace ``stack`` (a Stack, dict or JSON) under ``model`` down to its closures; the nodes
-    made for the weights carry the scope "closures". A stack of a structure traced before reuses
+    made for the weights carry the scope "closures". ``live``: the inputs a material links (a
+    linked coverage makes its coat partly covering). A stack of a structure traced before reuses
     that graph with its own values as the parameters' defaults (``structure_of``)."""
     stack = Stack.coerce(stack)
-    key = structure_of(stack, model)
+    partial = partial_coats(stack, live)
+    key = structure_of(stack, model, partial)
     hit = _TRACES.get(key)
     if hit is not None:
         tracer = copy.copy(hit.tracer)
-        tracer.defaults = declared_params(stack)
-        return TracedClosures(stack, hit.model, tracer, hit.wi, hit.closures)
-    traced = _trace(stack, model)
+        tracer.defaults = declared_params(stack, partial)
+        return TracedClosures(stack, hit.model, tracer, hit.wi, hit.closures, partial, hit.covered)
+    traced = _trace(stack, model, partial)
     if len(_TRACES) >= _TRACES_KEPT:
         _TRACES.pop(next(iter(_TRACES)))
     _TRACES[key] = traced
     return traced
 
 
-def _trace(stack, model: str) -> TracedClosures:
+def _trace(stack, model: str, partial=()) -> TracedClosures:
     v = resolve(model, stack)
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
-    lobes = v.run(t, stack, wi)
+    lobes = run_model(t, stack, wi, model, partial)
     t.set_scope("closures")
     closures = []
     for k, lobe in enumerate(lobes):
         kind = lobe_kinds.kind(lobe.kind)
         scale = kind.scale(t, lobe, wi)
         label = f"lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
-        closures.append(Closure(lobe, kind, tuple(c * scale for c in lobe.weight), kind.args(t, lobe, wi), label))
-    return TracedClosures(stack, v.name, t, wi, closures)
+        closures.append(Closure(lobe, kind, tuple(c * scale for c in lobe.weight), kind.args(t, lobe, wi), label,
+                                lobe.cover))
+    covered = [c.covered(t) for c in closures]
+    return TracedClosures(stack, v.name, t, wi, closures, tuple(partial), covered)

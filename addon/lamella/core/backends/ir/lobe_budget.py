@@ -70,18 +70,20 @@ class LobeSamples:
     log_stack: np.ndarray | None = field(default=None, repr=False)
     exprs: dict = field(default_factory=dict, repr=False)  # traced values of a model's own lobe
     live: bool = False  # it reads a linked input (merges only with lobes that do too, traced)
+    group: object = None  # the live cover it is weighted by (``models.coverage``): merges only within it
     row_brdf: dict = field(default_factory=dict, repr=False)  # CheckViews -> f cos at its directions (brdf_error)
     _delta: bool | None = field(default=None, repr=False)
     _mean_energy: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
-    def of(cls, closure, on_grid, index: int = -1, live: bool = False) -> "LobeSamples":
+    def of(cls, closure, on_grid, index: int = -1, live: bool = False, group=None) -> "LobeSamples":
         vals = on_grid([*closure.lobe.weight, *closure.weight, *closure.args.values()])
         energy = np.stack(vals[0:3], -1)
         weight = np.stack(vals[3:6], -1)
         args = dict(zip(closure.args, vals[6:]))
         s = cls(closure.kind, energy, args, closure.label, closure.lobe, weight=weight, index=index,
-                exprs={**closure.args, **{f"weight{ch}": w for ch, w in enumerate(closure.weight)}}, live=live)
+                exprs={**closure.args, **{f"weight{ch}": w for ch, w in enumerate(closure.weight)}}, live=live,
+                group=group)
         s.members = [s]
         return s
 
@@ -200,12 +202,13 @@ def combine(group: list[LobeSamples], rule: str = DEFAULT_RULE) -> LobeSamples:
         weights = [g.mean_energy for g in group]
         p = RULES[rule]
         args = _args_of_tensor(kind, _power_mean([_log_tensor(g) if p == 0.0 else _tensor(g) for g in group], weights, p))
-    return LobeSamples(kind, energy, args, label, group[0].lobe, members, live=group[0].live)
+    return LobeSamples(kind, energy, args, label, group[0].lobe, members, live=group[0].live, group=group[0].group)
 
 
 # ---------------------------------------------------------------- which lobes merge
 def _can_merge(a: LobeSamples, b: LobeSamples) -> bool:
-    return a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta and a.live == b.live
+    return (a.kind is b.kind and a.kind.name in MERGEABLE and a.is_delta == b.is_delta and a.live == b.live
+            and a.group == b.group)
 
 
 def _costs(i: int, lobes: list[LobeSamples]) -> np.ndarray:
@@ -428,7 +431,7 @@ def _kept_partition(samples: list[LobeSamples], partition, cap: int, rule: str) 
     for group in partition:
         lobes = [by_index[i] for i in group]
         if len(lobes) > 1 and any(s.kind is not lobes[0].kind or s.live != lobes[0].live
-                                  or s.kind.name not in MERGEABLE for s in lobes):
+                                  or s.group != lobes[0].group or s.kind.name not in MERGEABLE for s in lobes):
             return None
         merged = combine(lobes, rule)
         groups.append(Group(merged, merged.members))

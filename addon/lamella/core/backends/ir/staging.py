@@ -259,7 +259,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     stack = Stack.coerce(stack)
     budget = lobe_budget.parse(budget)
     if traced is None or traced.stack != stack:
-        traced = trace_closures(stack, model)  # ``traced``: the caller's trace of this stack and model
+        traced = trace_closures(stack, model, live)  # ``traced``: the caller's trace of this stack and model
     t = traced.tracer
     defaults = {k: float(t.defaults[k]) for k in t.params}
     unknown = sorted(n for n in live if n not in defaults and n not in socket_names(t.ids))
@@ -277,8 +277,13 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     def live_expr(x):
         return isinstance(x, Expr) and id(x) in live_ids
 
+    # a closure's cover (the fraction of the surface its part of a partly covered stack is on,
+    # ``models.coverage``) is a constant of the compile unless a mask is linked: then it stays a
+    # live factor of the closure's weight, and lobes merge only with lobes of their own part
+    source = [c if live_expr(c.cover) else cc for c, cc in zip(traced.closures, traced.covered)]
+    live_covers = list({id(c.cover): c.cover for c in source if live_expr(c.cover)}.values())
     fixed, moving = [], []
-    for c in traced.closures:
+    for c in source:
         (moving if any(live_expr(x) for x in (*c.weight, *c.args.values())) else fixed).append(c)
     # what the table holds: every value of the baked lobes, and the view-only values the live
     # lobes read (the boundary between what the table answers and what stays traced)
@@ -293,7 +298,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         return list({id(e): e for e in found if e.op != "input"}.values())
 
     # a live lobe that merges reads its energy too (``_merged_live_closure``)
-    boundary = boundary_of([x for c in moving for x in (*c.lobe.weight, *c.weight, *c.args.values())])
+    boundary = boundary_of([x for c in moving for x in (*c.lobe.weight, *c.weight, *c.args.values())] + live_covers)
 
     # the model on the grid: each node once, shared by every read of it
     if grid is not None:
@@ -316,16 +321,19 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
 
     # every lobe on the grid (a live one at its sockets' values), merged to the budget: baked lobes
     # with baked ones, live lobes with live ones
-    samples = [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c)) for c in fixed]
-    samples += [lobe_budget.LobeSamples.of(c, on_grid, traced.closures.index(c), live=True) for c in moving]
+    def group(c):
+        return id(c.cover) if live_expr(c.cover) else None
+
+    samples = [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), group=group(c)) for c in fixed]
+    samples += [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), live=True, group=group(c)) for c in moving]
     views = lobe_budget.check_views(dirs, turn)
     groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views,
                                cap=lobe_budget.MAX_CLOSURES if not axes else max(len(samples), lobe_budget.MAX_CLOSURES),
                                partition=partition)
     live_groups = [g for g in groups if g.lobe.live]
     moving_outs = [x for g in live_groups for m in g.members for x in (
-        *(traced.closures[m.index].lobe.weight if len(g.members) > 1 else ()),
-        *traced.closures[m.index].weight, *traced.closures[m.index].args.values())]
+        *(source[m.index].lobe.weight if len(g.members) > 1 else ()),
+        *source[m.index].weight, *source[m.index].args.values())] + live_covers
     cols = _Columns((grid.n_mu, grid.n_phi))
 
     t2 = Tracer()
@@ -343,10 +351,10 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
 
     closures = []
     merged = []
-    for grp in groups:
-        if not grp.lobe.live:
-            merged.append([s.index for s in grp.members])
-            closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
+    baked_groups = [grp for grp in groups if not grp.lobe.live]
+    for grp in baked_groups:
+        merged.append([s.index for s in grp.members])
+        closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
 
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
@@ -394,7 +402,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
             env[id(e)] = t2.node(e.op, *a)
     t2.set_scope("closures")
     for grp in live_groups:
-        members = [traced.closures[m.index] for m in grp.members]
+        members = [source[m.index] for m in grp.members]
         merged.append([m.index for m in grp.members])
         if len(members) == 1:
             c = members[0]
@@ -402,11 +410,21 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                                     {k: rebuild(x) for k, x in c.args.items()}, c.label))
         else:
             closures.append(_merged_live_closure(t2, wi2, members, rebuild, grp.lobe.label))
+    closures = [_covered(c, rebuild(source[grp.members[0].index].cover))
+                for c, grp in zip(closures, baked_groups + live_groups)]
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
                 tuple(sorted(traced_params)), dict(t.ids))
     return st
+
+
+def _covered(c: Closure, cover) -> Closure:
+    """``c`` with its weight times ``cover`` (a live part's fraction of the surface, rebuilt in
+    the staged graph; 1.0: the weight already holds it)."""
+    if isinstance(cover, float) and cover == 1.0:
+        return c
+    return Closure(c.lobe, c.kind, tuple(w * cover for w in c.weight), c.args, c.label)
 
 
 def _traced_part(t: Tracer, live, axes: dict, max_axes: int) -> frozenset[int]:

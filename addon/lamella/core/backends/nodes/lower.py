@@ -399,7 +399,7 @@ def _plan(stack, model: str, st, image: str) -> Plan:
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         ids = dict(traced.tracer.ids)
-        t, closures, wi, frame, table = traced.tracer, traced.closures, traced.wi, "shading", None
+        t, closures, wi, frame, table = traced.tracer, traced.covered, traced.wi, "shading", None
     specs = [(c, c.weight, c.kind.node(t, c.args, wi)) for c in closures]
     exprs = []
     for _, color, b in specs:

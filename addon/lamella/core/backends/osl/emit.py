@@ -327,14 +327,14 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         raise ValueError(f"declare must be 'all' or 'live', got {declare!r}")
     if view not in VIEW_LINES:
         raise ValueError(f"unknown view target {view!r}: expected one of {', '.join(VIEW_TARGETS)}")
-    traced = trace_closures(stack, model)
+    traced = trace_closures(stack, model, live)
     all_params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
     if staged:
         st = stage(traced.stack, model, live, budget, traced=traced, partition=partition)
         t, closures, frame, table = st.tracer, st.closures, st.frame, st.table
     else:
         st = None
-        t, closures, frame, table = traced.tracer, traced.closures, "shading", None
+        t, closures, frame, table = traced.tracer, traced.covered, "shading", None
     stack = traced.stack
     outputs = [x for c in closures for x in (*c.weight, *c.args.values())]
     p = _Printer(t)
