@@ -19,6 +19,7 @@ are refused with the layer named.
 import numpy as np
 import pytest
 
+from lamella.core import Stack
 from lamella_dev import reference, suite
 
 pytest.importorskip("bpy")
@@ -356,3 +357,13 @@ def test_media_are_sampled_as_homogeneous():
         images.append(_render_scene(sc))
         assert all(m.cycles.volume_sampling == "DISTANCE" for m in bpy.data.materials if m.name.startswith("interface"))
     assert np.abs(images[0] - images[1]).max() < 1e-5
+
+
+def test_a_partly_covering_coat_is_the_mix_of_its_parts_spheres():
+    """Coverage 0.4: the render mixes the nested spheres with and without the coat (0.4 and 0.6),
+    and the mix reproduces the stochastic albedo, which mixes its walks the same way."""
+    d = suite.load("tinted_varnish").to_dict()
+    d["layers"][0]["coverage"] = 0.4
+    stack = Stack.from_dict(d)
+    assert [w for w, _ in reference.covered_parts(stack)] == pytest.approx([0.6, 0.4])
+    assert_bands_match_the_albedo(stack)

@@ -1,6 +1,7 @@
 """The MaterialX export (lamella.core.backends.materialx): the structure of both documents, what
 the export reports, and validation by PyMaterialX for every preset, suite stack and example."""
 import ast
+import importlib.util
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -317,3 +318,27 @@ def test_a_kind_the_export_does_not_map_is_refused_naming_the_layer():
                     export(Stack.from_dict(stack))
     finally:
         extension_kinds.unregister()
+
+
+def test_a_partly_covering_coat_is_a_mix_of_its_layer_and_what_is_under_it():
+    """Coverage is a spatial mix: ``mix(fg = the coat's layer, bg = the layers under it)`` by a
+    ``coatN_coverage`` input of the node (the stack's value; a mask connects there), and OpenPBR's
+    coat weight. Both documents validate."""
+    layers = [{"ior": 1.5, "roughness": 0.05, "coverage": 0.4, "thickness": 0.3, "sigma_a": [1, 1, 1]},
+              {"ior": 1.3}]
+    root, nodes = _graph(mtlx.layered_document(_stack(layers, GOLD)))
+    (nodedef,) = root.findall("nodedef")
+    cover = {i.get("name"): i for i in nodedef.findall("input")}["coat0_coverage"]
+    assert float(cover.get("value")) == pytest.approx(0.4) and "coat1_coverage" not in nodes
+    mix = _inputs(nodes["coat0_coverage"])
+    assert mix["mix"].get("interfacename") == "coat0_coverage"
+    assert mix["fg"].get("nodename") == "coat0_layer" and mix["bg"].get("nodename") == "coat1_layer"
+    assert _inputs(nodes["surface"])["bsdf"].get("nodename") == "coat0_coverage"
+    pbr = mtlx.open_pbr_document(_stack(layers[:1], GOLD))
+    assert 'name="coat_weight" type="float" value="0.4"' in pbr.text
+    if importlib.util.find_spec("MaterialX") is not None:
+        from lamella_dev.materialx_check import validate
+
+        for doc in (mtlx.layered_document(_stack(layers, GOLD)), pbr):
+            ok, message = validate(doc.text)
+            assert ok, message

@@ -13,7 +13,9 @@ Two parts, written to ``bench/staging.md`` (and ``staging.json``):
   ``sphere-env``, median of interleaved renders in one process, as ratios to the Principled
   stand-in in the same shading system: the traced OSL shader, the staged OSL shader (budget
   auto and all), the staged node group rendered by Cycles with OSL on (which compiles it to OSL)
-  and without (SVM), the group in EEVEE, and the node counts.
+  and without (SVM), the group in EEVEE, and the node counts; and what a coverage mask costs
+  (the Lamella node with a node linked into a coat's coverage: a mask of 1 or 0 everywhere
+  against the stack it leaves, a noise mask against the Principled BSDF's Coat Weight).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lamella.core import api
+from lamella.core import Stack, api
 from .. import suite
 from lamella.core.backends.ir import lobe_budget, staging
 from lamella.core.backends.evaluate import evaluate_staged
@@ -173,10 +175,71 @@ def cost_rows(repeats: int = REPEATS, progress=print, variants=COST_VARIANTS) ->
     return rows
 
 
+# What a coverage mask costs: (label, stack, what is linked into coat 0's coverage). A mask of 1
+# everywhere should cost what the whole stack costs, a mask of 0 what the bare base costs: the
+# closures of the part that is absent weigh 0 and the renderer skips them (``models.coverage``).
+COVER_COAT = {"ior": 1.5, "roughness": 0.01, "thickness": 0.4, "sigma_a": [0.1, 0.5, 1.5]}
+COVER_BASE = {"type": "diffuse", "albedo": [0.5, 0.3, 0.15]}
+COVER_VARIANTS = (("the whole stack, no mask", [COVER_COAT], None),
+                  ("mask linked, 1 everywhere", [COVER_COAT], 1.0),
+                  ("the bare base", [], None),
+                  ("mask linked, 0 everywhere", [COVER_COAT], 0.0),
+                  ("mask linked, a noise texture", [COVER_COAT], "noise"))
+COVER_ENGINES = (("OSL", "lamella-osl", "principled"), ("SVM", "lamella-svm", "principled-svm"),
+                 ("EEVEE", "lamella-eevee", "eevee-principled"))
+
+
+def _timed_cover_render(layers, mask, engine):
+    """(first, frame) seconds of the Lamella node with ``layers`` over ``COVER_BASE``, ``mask``
+    (None, a number or "noise") linked into coat 0's coverage; ``engine`` may be a Principled
+    stand-in (its Coat Weight takes the mask)."""
+    from lamella.blender import api as blender_api
+
+    from ..render import assign_material, build_scene, node_tree, render_scene
+
+    sc, sphere = build_scene("sphere-env", RES, SPP)
+    stack = {"layers": layers, "base": COVER_BASE}
+    mat = assign_material(sphere, Stack.coerce(stack), engine)
+    if mask is not None:
+        nt = node_tree(mat)
+        if mask == "noise":
+            src = nt.nodes.new("ShaderNodeTexNoise").outputs["Fac"]
+        else:
+            value = nt.nodes.new("ShaderNodeValue")
+            value.outputs[0].default_value = mask
+            src = value.outputs[0]
+        if engine.startswith("lamella"):
+            nt.links.new(src, blender_api.input_socket(mat, 0, "coverage"))
+        else:
+            principled = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+            nt.links.new(src, principled.inputs["Coat Weight"])
+    _, first = render_scene(sc)  # the render handler compiles the linked mask first
+    _, second = render_scene(sc) if "eevee" in engine else (None, first)
+    return first, second
+
+
+def cover_rows(repeats: int = REPEATS, progress=print) -> list[dict]:
+    """Median frame seconds of each ``COVER_VARIANTS`` in each engine (the Lamella node) and of
+    the Principled stand-in with the noise mask in its Coat Weight, interleaved."""
+    rows = []
+    for system, engine, principled in COVER_ENGINES:
+        variants = [(label, layers, mask, engine) for label, layers, mask in COVER_VARIANTS]
+        variants.append(("Principled, the noise in its Coat Weight", [COVER_COAT], "noise", principled))
+        frames = {v[0]: [] for v in variants}
+        for _ in range(repeats):
+            for label, layers, mask, eng in variants:
+                _, frame = _timed_cover_render(layers, mask, eng)
+                frames[label].append(frame)
+                progress(f"coverage {system} {label}: {frame:.2f} s")
+        rows.append({"system": system, "seconds": {k: float(np.median(v)) for k, v in frames.items()}})
+    return rows
+
+
 def run(out_dir: Path = BENCH_DIR, progress=print, renders: bool = True) -> Path:
     data = {"accuracy": accuracy_rows(progress), "budget": budget_rows(progress)}
     if renders:
         data["cost"] = cost_rows(progress=progress)
+        data["coverage"] = cover_rows(progress=progress)
     return write_page(out_dir, "staging", lambda: format_markdown(data), data)
 
 
@@ -222,6 +285,23 @@ def format_markdown(data) -> str:
             for v, s in r["seconds"].items():
                 lines.append(f"| {v} | {r['first_seconds'][v]:.2f} | {s:.2f} | {r['x_principled'][v]:.2f} |")
             lines.append("")
+    if "coverage" in data:
+        lines += ["## What a coverage mask costs", "",
+                  "A tinted clear coat over a diffuse base (the Lamella node), `sphere-env`, "
+                  f"{RES} px, {SPP} spp, median frame of {REPEATS} interleaved renders, with a node linked into the coat's",
+                  "coverage: a mask of 1 everywhere against the whole stack, a mask of 0 against the bare base, and a",
+                  "noise texture against the Principled BSDF with the same noise in its Coat Weight.", "",
+                  "| shading | variant | frame s | ratio | against |", "|---|---|---:|---:|---|"]
+        against = {"mask linked, 1 everywhere": "the whole stack, no mask",
+                   "mask linked, 0 everywhere": "the bare base",
+                   "mask linked, a noise texture": "Principled, the noise in its Coat Weight"}
+        for r in data["coverage"]:
+            sec = r["seconds"]
+            for label, s in sec.items():
+                ref = against.get(label)
+                ratio = f"{s / sec[ref]:.2f}" if ref else ""
+                lines.append(f"| {r['system']} | {label} | {s:.2f} | {ratio} | {ref or ''} |")
+        lines.append("")
     return "\n".join(lines) + "\n"
 
 

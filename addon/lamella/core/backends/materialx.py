@@ -16,7 +16,10 @@ needs no MaterialX package; ``lamella_dev.materialx_check`` validates them with 
     flow map reaches one layer only. GGX alphas go to the closures' ``roughness`` vector2 as they
     are (x along the tangent); a layer's ``rotation`` turns its tangent about its normal,
     ``cos(r) T + sin(r) (N x T)``, built from ``crossproduct``/``multiply``/``add``/``normalize``
-    (counterclockwise about the normal, as Lamella's shaders turn it).
+    (counterclockwise about the normal, as Lamella's shaders turn it). A coat on part of the
+    surface (``coverage`` below 1) is a ``mix`` (ibid., "mix") of its layer and what is under it,
+    by a ``coat0_coverage`` input on the node (its value the stack's; a mask connects there):
+    the spatial mix Lamella's coverage is, exact because ``layer`` is linear in its base.
 
 ``open_pbr_document(stack)``
     One ``open_pbr_surface`` (OpenPBR Surface specification v1.1) for a stack of at most one coat:
@@ -355,6 +358,10 @@ def layered_document(stack: Stack) -> MaterialXExport:
         warn("base", "albedo", f"darkened by the constant ({_vals(*dark)}) for the light the coats send back "
              "to it (the interfaced-Lambertian factor of OpenPBR's coat darkening), in place of Lamella's "
              "internal reflections")
+        for i, c in enumerate(stack.coats):
+            if c.coverage < 1.0:
+                warn(i, "coverage", "where the coat is absent the diffuse base keeps the darkening of the whole "
+                     "stack")
     base_ior = None
     if base.type == "dielectric":
         base_ior, folded = _relative_index(base.ior, n_bottom)
@@ -381,6 +388,11 @@ def layered_document(stack: Stack) -> MaterialXExport:
                                          "doc": f"shading normal of {layer}"})
         ET.SubElement(nodedef, "input", {"name": f"{layer}_tangent", "type": "vector3", "defaultgeomprop": "Tworld",
                                          "doc": f"tangent of {layer} (its anisotropy axis x before its rotation)"})
+    for i, c in enumerate(stack.coats):
+        if c.coverage < 1.0:
+            ET.SubElement(nodedef, "input", {"name": f"{layer_prefix(i)}_coverage", "type": "float",
+                                             "value": _num(c.coverage), "uimin": "0", "uimax": "1",
+                                             "doc": f"fraction of the surface coat {i} covers (a mask connects here)"})
     ET.SubElement(nodedef, "output", {"name": "out", "type": "surfaceshader"})
     ng = ET.SubElement(root, "nodegraph", {"name": f"NG_{node}", "nodedef": f"ND_{node}"})
     g = _Graph(ng)
@@ -416,10 +428,17 @@ def layered_document(stack: Stack) -> MaterialXExport:
         top = g.node("dielectric_bsdf", f"{prefix}_bsdf", "BSDF", ior=("float", _num(indices[i][1])),
                      roughness=("vector2", _vals(*c.roughness)), normal=("vector3", normal),
                      tangent=("vector3", t), scatter_mode=("string", "R"))
+        bare = below
         if c.has_absorption:
             below = g.node("multiply", f"{prefix}_absorption", "BSDF", in1=("BSDF", ("node", below)),
                            in2=("color3", _vals(*_round_trip(c))))
-        below = g.node("layer", f"{prefix}_layer", "BSDF", top=("BSDF", ("node", top)), base=("BSDF", ("node", below)))
+        layered = g.node("layer", f"{prefix}_layer", "BSDF", top=("BSDF", ("node", top)),
+                         base=("BSDF", ("node", below)))
+        if c.coverage < 1.0:  # the coat on a fraction of the surface: the spatial mix with what is under it
+            below = g.node("mix", f"{prefix}_coverage", "BSDF", fg=("BSDF", ("node", layered)),
+                           bg=("BSDF", ("node", bare)), mix=("float", ("interface", f"{prefix}_coverage")))
+        else:
+            below = layered
     g.node("surface", "surface", "surfaceshader", bsdf=("BSDF", ("node", below)))
     ET.SubElement(ng, "output", {"name": "out", "type": "surfaceshader", "nodename": "surface"})
 
@@ -464,7 +483,7 @@ def open_pbr_document(stack: Stack) -> MaterialXExport:
         warn("stack", None, "OpenPBR's coat is albedo scaling with an approximate darkening (coat_darkening 1) "
              "and base roughening: not the adding-doubling statistics of the Lamella models")
         r, a, swap = _open_pbr_roughness(coat.roughness)
-        put("coat_weight", "float", "1")
+        put("coat_weight", "float", _num(coat.coverage))  # OpenPBR's coat weight is the coat's presence
         put("coat_ior", "float", _num(coat.ior))
         put("coat_roughness", "float", _num(r))
         put("coat_roughness_anisotropy", "float", _num(a))
