@@ -2,8 +2,8 @@
 
 This module only registers and unregisters; everything else is imported when used. The batch API
 of the extension (``bl_ext.<repo>.lamella``): ``apply_stack(material, stack)`` and
-``read_stack(material)``, ``input_socket(material, layer, field)``, with ``StackError`` for bad
-input.
+``read_stack(material)``, ``apply_preset(material, preset_id)``, ``input_socket(material, layer,
+field)``, with ``StackError`` for bad input.
 """
 
 
@@ -25,6 +25,14 @@ def apply_stack(material, stack, model=None):
     from .addon.lamella.blender.api import apply_stack as _apply
 
     return _apply(material, stack, model)
+
+
+def apply_preset(material, preset_id):
+    """Apply a preset (a built-in id such as "worn_lacquer_on_wood", or "user:<name>"): its stack,
+    and the nodes of its procedural inputs (a wear mask, ...) linked into the Lamella node."""
+    from .addon.lamella.blender.api import apply_preset as _apply
+
+    return _apply(material, preset_id)
 
 
 def read_stack(material):

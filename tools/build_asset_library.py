@@ -1,6 +1,6 @@
 """Build the presets' asset library (``addon/lamella/data/assets``) from the preset JSON, so the
 presets stay one source: one asset material per built-in preset, holding its stack (compiled when
-it first appears in a scene), the preset's description, a catalog (the artistic presets, the paper
+it first appears in a scene) and the nodes of the preset's procedural inputs (linked then), the preset's description, a catalog (the artistic presets, the paper
 figures) and a preview rendered with the material's own shader on the canonical sphere.
 
 Run it with the oldest Blender the extension supports, so every supported Blender opens the file
@@ -22,7 +22,7 @@ def build(out_dir: Path) -> Path:
     import bpy
     import numpy as np
 
-    from lamella.blender import api, recompile, register
+    from lamella.blender import api, input_recipes, recompile, register
     from lamella.blender.asset_library import LIBRARY_FILE
     from lamella.blender.stack_props import write_stack
     from lamella.core import presets
@@ -35,7 +35,7 @@ def build(out_dir: Path) -> Path:
         sc, sphere = build_scene("sphere-env", PREVIEW, PREVIEW_SPP)
         sc.render.film_transparent = True  # the Asset Browser shows the sphere on its own background
         shown = bpy.data.materials.new(f"preview {preset.id}")
-        api.apply_stack(shown, preset.load())
+        api.apply_preset(shown, preset.id)
         sphere.data.materials.append(shown)
         rgba = render_scene(sc)[0]
         previews[preset.id] = np.concatenate([display_srgb(rgba), rgba[..., 3:4]], -1)[::-1]  # bottom row first
@@ -49,6 +49,9 @@ def build(out_dir: Path) -> Path:
         with recompile.suspended():  # the stack only: compiled where it is used
             write_stack(mat.lamella, preset.load())
             mat.lamella.enabled = True
+        # the preset's procedural inputs (a wear mask, ...): linked into the Lamella node its first
+        # compile builds (``input_recipes.link_pending``)
+        input_recipes.add(mat, preset.inputs)
         mat.asset_mark()
         mat.asset_data.description = preset.description
         mat.asset_data.catalog_id = presets.catalog_id(presets.catalog_path(preset))

@@ -49,7 +49,7 @@ OLDEST_BPY = "4.2.23"  # the bpy wheel of blender_manifest.toml's blender_versio
 REGENERATE = "make exports"
 # Bumped when the way a group is made from what ``compile_digest`` covers changes (the face's
 # wiring, the node group's building, what the export strips): the manifest then reads as stale.
-EXPORT_LAYOUT = 1
+EXPORT_LAYOUT = 2
 PREVIEW = 128  # pixels
 PREVIEW_SPP = 32
 
@@ -70,6 +70,12 @@ def shader_file(preset) -> str:
     return f"lamella_{preset.id}.osl"
 
 
+def _live(preset) -> tuple:
+    """The sockets a preset links a procedural input into (its wear mask, ...): inputs of its
+    shader and group, where a TD connects their own."""
+    return tuple(socket for socket, _ in preset.inputs)
+
+
 def write_osl(out_dir: Path = OSL_DIR) -> list[Path]:
     """Write ``osl/``: every preset's bundle for every view target, and the README. The target
     folders are written anew (a preset removed leaves no bundle behind). Returns the shaders."""
@@ -81,7 +87,7 @@ def write_osl(out_dir: Path = OSL_DIR) -> list[Path]:
         shutil.rmtree(out_dir / target, ignore_errors=True)
         for p in _presets():
             shaders.append(write_bundle(p.load(), out_dir / target / p.id, model="auto", target=target,
-                                        file_name=shader_file(p)))
+                                        file_name=shader_file(p), live=_live(p)))
     (out_dir / README).write_text(osl_readme(out_dir))
     return shaders
 
@@ -193,7 +199,7 @@ def _canonical(obj):
     raise TypeError(f"cannot digest {type(obj).__name__}")
 
 
-def compile_digest(stack) -> str:
+def compile_digest(stack, inputs=()) -> str:
     """What the extension compiles for ``stack`` in a material with nothing linked, as a digest: the
     OSL source of its Script node and the node plan of its node group (nodes, closures, the table's
     pixels), with the layout versions of the tables and of this export. No bpy: the test recomputes it
@@ -202,10 +208,12 @@ def compile_digest(stack) -> str:
 
     # as recompile.build_shader and material_nodes.install_group (the lobe budget's default "auto");
     # the table folder and the image name are placeholders: neither is part of what renders
-    shader = osl_shader(stack, "auto", lut_dir="luts", live=(), budget="auto", engine_switch=True)
-    plan = emit_plan(stack, "auto", live=(), budget="auto", image="table", staged_ir=shader.staged)
+    live = tuple(socket for socket, _ in inputs)
+    shader = osl_shader(stack, "auto", lut_dir="luts", live=live, budget="auto", engine_switch=True)
+    plan = emit_plan(stack, "auto", live=live, budget="auto", image="table", staged_ir=shader.staged)
     h = hashlib.sha256()
     h.update(f"layout {EXPORT_LAYOUT} luts {luts.LAYOUT}\n".encode())
+    h.update(json.dumps(list(inputs)).encode())  # the procedural inputs built into the group
     h.update(shader.source.encode())
     h.update(json.dumps(_canonical([[n.bl_idname, n.props, n.inputs] for n in plan.nodes])).encode())
     h.update(json.dumps(_canonical([plan.leaves, plan.bsdfs, plan.frame, plan.model])).encode())
@@ -229,7 +237,7 @@ def manifest_entry(preset) -> dict:
         "model": resolve("auto", stack).name,
         "transmits": bool(stack.base.kind.transmits),
         "stack_sha256": stack_digest(stack),
-        "compile_digest": compile_digest(stack),
+        "compile_digest": compile_digest(stack, preset.inputs),
     }
 
 
@@ -254,13 +262,14 @@ def node_group_changes(folder: Path = NODE_GROUPS_DIR) -> list[str]:
 
 
 # ---------------------------------------------------------------- node_groups/: the build (bpy)
-def _strip(tree, preset) -> None:
+def _strip(tree, preset, mat) -> None:
     """Make the material's Lamella node group a plain, self-describing group: the layer inputs go
     (every value is baked into the group's table and the shader's, so they feed nothing; Normal and
     Tangent stay), and so do the extension's records of them, so that the extension (where it is
     installed) never takes the group for a Lamella material's own."""
     from lamella.blender import face
 
+    _build_inputs(tree, preset, mat)
     for s in [s for s in tree.interface.items_tree
               if s.item_type == "SOCKET" and s.in_out == "INPUT" and s.name not in (face.NORMAL, face.TANGENT)]:
         tree.interface.remove(s)
@@ -270,6 +279,27 @@ def _strip(tree, preset) -> None:
     tree.name = group_name(preset)
     if hasattr(tree, "description"):  # the node's tooltip (Blender 4.1 and newer)
         tree.description = preset.description
+
+
+def _build_inputs(tree, preset, mat) -> None:
+    """The preset's procedural inputs (``input_recipes``) built inside the group, feeding what the
+    group's own input of that socket fed, so the group renders as the preset's material does."""
+    from lamella.blender import face, input_recipes
+
+    if not preset.inputs:
+        return
+    keys = face.socket_keys(tree)
+    group_in = next(n for n in tree.nodes if n.type == "GROUP_INPUT")
+    settings = mat.lamella
+    for socket, recipe in preset.inputs:
+        key = input_recipes.face_key(settings, socket)
+        ident = next(i for i, k in keys.items() if k == key)
+        out = next(o for o in group_in.outputs if o.identifier == ident)
+        targets = [link.to_socket for link in out.links]
+        _, made = input_recipes.build(tree, recipe, socket, (group_in.location[0], group_in.location[1] - 400.0))
+        for t in targets:
+            tree.links.new(made, t)
+
 
 
 def _preview(render_scene, sc) -> "object":
@@ -304,22 +334,23 @@ def build_node_groups(out_dir: Path, previews: bool = True) -> Path:
         sc.render.film_transparent = True  # the Asset Browser shows the sphere on its own background
         for p in _presets():
             mat = bpy.data.materials.new(f"preview {p.id}")
-            api.apply_stack(mat, p.load())
+            api.apply_preset(mat, p.id)
             sphere.data.materials.clear()
             sphere.data.materials.append(mat)
             pixels[p.id] = _preview(render_scene, sc)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.scene.render.engine = "CYCLES"  # where Script nodes get their sockets
-    trees, entries = [], []
+    trees, mats, entries = [], [], []
     for p in _presets():
         mat = bpy.data.materials.new(p.label)
-        api.apply_stack(mat, p.load())
+        api.apply_preset(mat, p.id)
         node, script, group = material_nodes.inner_nodes(mat)
+        mats.append(mat)
         if script is None or group is None or "BSDF" not in script.outputs or not script.bytecode:
             raise SystemExit(f"{p.id}: the Lamella node lacks its compiled OSL shader or its node group")
         trees.append(node.node_tree)
-    for p, tree in zip(_presets(), trees):  # once every material is built: no compile runs after
-        _strip(tree, p)
+    for p, tree, mat in zip(_presets(), trees, mats):  # once every material is built: no compile runs after
+        _strip(tree, p, mat)
         entry = manifest_entry(p)
         tree.asset_mark()
         tree.asset_data.description = p.description

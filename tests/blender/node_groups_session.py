@@ -93,9 +93,9 @@ def extension(zip_path: Path, stacks: list, out: Path) -> dict:
     bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo="user_default", enable_on_install=True)
     ext = sys.modules["bl_ext.user_default.lamella"]
     sc, spheres = life.studio_scene()
-    for sphere, (name, stack) in zip(spheres, stacks):
+    for sphere, (name, preset) in zip(spheres, stacks):
         mat = bpy.data.materials.new(name)
-        ext.apply_stack(mat, stack)
+        ext.apply_preset(mat, preset)
         sphere.data.materials.append(mat)
     return {"extension": life.render_all(sc, out, "extension")}
 

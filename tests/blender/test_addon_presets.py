@@ -22,6 +22,59 @@ def test_preset_applies_and_renders_finite(addon, preset):
     assert px[px[..., 3] > 0.999, :3].mean() > 0.005
 
 
+MASKED = [p.id for p in presets.builtin() if p.inputs]
+
+
+@pytest.mark.parametrize("engine", ["osl", "svm", "eevee"])
+def test_a_preset_with_procedural_inputs_links_them_and_renders_in_every_engine(addon, engine):
+    """Worn Lacquer on Wood links a wear mask into the lacquer's coverage, Dust on Upward Faces the
+    world normal's z into the dust's: each renders in Cycles with and without OSL and in EEVEE, and
+    differs from its stack without the mask (coverage as the panel holds it)."""
+    from lamella.blender import input_recipes
+    from lamella_dev.render import use_eevee
+
+    assert {"worn_lacquer_on_wood", "dust_on_upward_faces"} <= set(MASKED)
+    for pid in MASKED:
+        preset = presets.find(pid)
+        sc, sphere = sphere_scene(res=32, spp=8)
+        if engine == "svm":
+            sc.cycles.shading_system = False
+        elif engine == "eevee":
+            use_eevee(sc)
+        mat = new_material(sphere, f"{pid}_{engine}")
+        addon.ops.lamella.preset_apply(material=mat.name, preset=pid)
+        assert mat.lamella.status == "OK", mat.lamella.status_message
+        for socket, recipe in preset.inputs:
+            assert socket in mat.lamella.live_params.split(", ")
+            layer, _, field = socket.partition("_")
+            sock = api.input_socket(mat, int(layer[4:]) if layer != "base" else "base", field)
+            assert sock.is_linked and sock.links[0].from_node.get(input_recipes.RECIPE_KEY) == recipe
+        masked = render(sc)
+        assert np.isfinite(masked).all() and (masked >= 0).all()
+        api.apply_stack(mat, preset.load())  # the same stack, the mask's nodes left unlinked
+        for socket, _ in preset.inputs:
+            layer, _, field = socket.partition("_")
+            mat.node_tree.links.remove(api.input_socket(mat, int(layer[4:]), field).links[0])
+        plain = render(sc)
+        on = masked[..., 3] > 0.999
+        assert np.abs(masked - plain)[on, :3].mean() > 0.01 * plain[on, :3].mean(), pid
+
+
+def test_the_next_preset_removes_the_nodes_a_preset_built_and_keeps_the_artists(addon):
+    from lamella.blender import input_recipes
+    from lamella_dev.render import node_tree
+
+    mat = addon.data.materials.new("recipes_replaced")
+    addon.ops.lamella.preset_apply(material=mat.name, preset="worn_lacquer_on_wood")
+    nt = node_tree(mat)
+    mine = nt.nodes.new("ShaderNodeTexNoise")
+    made = [n for n in nt.nodes if input_recipes.RECIPE_KEY in n]
+    assert len(made) >= 3 and any(n.type == "FRAME" for n in made)
+    addon.ops.lamella.preset_apply(material=mat.name, preset="lacquered_gold")
+    assert not [n for n in nt.nodes if input_recipes.RECIPE_KEY in n]
+    assert mine.name in nt.nodes and mat.lamella.status == "OK" and mat.lamella.live_params == ""
+
+
 @pytest.mark.parametrize("metal", list(metals.measured()))
 def test_measured_metal_picker_writes_the_published_values(addon, metal):
     mat = addon.data.materials.new(f"metal_{metal}")

@@ -82,11 +82,15 @@ def test_the_extension_lists_the_library_while_it_is_enabled(addon):
     assert len(listed()) == 1
 
 
-def test_an_asset_dropped_into_a_scene_compiles_and_renders_as_its_preset(addon):
-    preset = presets.find("lacquered_gold")
+@pytest.mark.parametrize("preset_id", ["lacquered_gold", "worn_lacquer_on_wood"])
+def test_an_asset_dropped_into_a_scene_compiles_and_renders_as_its_preset(addon, preset_id):
+    """Its procedural inputs too (the wear mask of Worn Lacquer on Wood is linked into the lacquer's
+    coverage when the asset first compiles)."""
+    preset = presets.find(preset_id)
     sc, sphere = sphere_scene()
     mat = new_material(sphere, "by_hand")
-    api.apply_stack(mat, preset.load())
+    api.apply_preset(mat, preset.id)
+    live = mat.lamella.live_params
     expected = render(sc)
 
     sc, sphere = sphere_scene()
@@ -98,5 +102,6 @@ def test_an_asset_dropped_into_a_scene_compiles_and_renders_as_its_preset(addon)
     assert asset.lamella.status == "PENDING"
     got = render(sc)  # a render compiles what is pending (no timers run in background mode)
     assert asset.lamella.status == "OK"
+    assert asset.lamella.live_params == live
     d = np.abs(got - expected)
     assert np.percentile(d, 99) < 1e-3 and d.mean() < 1e-4, (np.percentile(d, 99), d.mean())

@@ -25,7 +25,7 @@ from .test_material_life import ENGINES, _rel, _run  # noqa: E402
 
 # one per model and kind of base: anisotropic and rotated (yamaguchi2019), a scattering medium
 # (tm6), glass that transmits (endf), a diffuse base
-RENDERED = ("paper_rotated_anisotropy", "dusty_copper", "frosted_glass", "varnished_wood")
+RENDERED = ("paper_rotated_anisotropy", "dusty_copper", "frosted_glass", "worn_lacquer_on_wood")
 SESSION = Path(__file__).with_name("node_groups_session.py")
 LIBRARY = pe.NODE_GROUPS_DIR / pe.LIBRARY_FILE
 
@@ -36,14 +36,15 @@ def _manifest():
 
 @pytest.mark.parametrize("target", VIEW_TARGETS)
 def test_every_exported_shader_compiles(tmp_path, target):
-    """A preset's shader bakes every value: its inputs are the normal and the tangent alone."""
+    """A preset's shader bakes every value: its inputs are the normal and the tangent, and the
+    sockets its procedural inputs feed (a mask in a coat's coverage: a TD connects their own)."""
     pytest.importorskip("oslquery")  # the bpy wheels before 5.0 do not ship it where Python finds it
     from .test_osl_export import _compile
 
     for p in presets.builtin():
         osl = pe.OSL_DIR / target / p.id / pe.shader_file(p)
         names = {q.name for q in _compile(osl, tmp_path / f"{p.id}.oso")}
-        assert names == {"Normal", "Tangent", "BSDF"}, (target, p.id, names)
+        assert names == {"Normal", "Tangent", "BSDF", *(socket for socket, _ in p.inputs)}, (target, p.id, names)
 
 
 def test_the_library_is_saved_by_the_oldest_supported_blender():
@@ -92,7 +93,7 @@ def renders(extension_zip, tmp_path_factory):
     copy = tmp / LIBRARY.name  # the session deletes it once the groups are appended
     shutil.copyfile(LIBRARY, copy)
     found = _run(["library", copy, json.dumps(entries), tmp / "library"], tmp, tmp / "library_user", SESSION)
-    stacks = [[pid, presets.find(pid).load().to_dict()] for pid in RENDERED]
+    stacks = [[pid, pid] for pid in RENDERED]  # applied as presets: their procedural inputs too
     found.update(_run(["extension", extension_zip, json.dumps(stacks), tmp / "extension"], tmp, tmp / "extension_user",
                       SESSION))
     return found

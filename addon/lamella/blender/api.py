@@ -10,8 +10,9 @@ from __future__ import annotations
 import json
 import time
 
+from ..core import presets
 from ..core.stack import Stack, StackError
-from . import material_nodes, recompile
+from . import input_recipes, material_nodes, paths, recompile
 from .stack_props import stack_dict, write_stack
 
 
@@ -35,6 +36,22 @@ def apply_stack(material, stack, model: str | None = None):
         settings.model = model
         settings.enabled = True
     recompile.install(material, stack, built, t0)
+    return material
+
+
+def apply_preset(material, preset_id: str):
+    """Apply the preset ``preset_id`` (a built-in id, or ``user:<name>``) to ``material`` as
+    ``apply_stack`` does, then replace the nodes a previous preset built for its inputs by this
+    preset's (``input_recipes``: a wear mask in a coat's coverage, ...), linked into the Lamella
+    node; the artist's own nodes stay. Returns the material."""
+    preset = presets.find(preset_id, paths.user_presets_dir())
+    apply_stack(material, preset.load())
+    removed = input_recipes.remove(material)
+    if preset.inputs:
+        input_recipes.add(material, preset.inputs)
+        input_recipes.link_pending(material)
+    if removed or preset.inputs:  # what is linked changed: the shader reads other inputs live
+        recompile.compile_material(material, raise_errors=True)
     return material
 
 
@@ -67,4 +84,4 @@ def read_stack_json(material, indent: int | None = 2) -> str | None:
     return None if d is None else json.dumps(d, indent=indent)
 
 
-__all__ = ["apply_stack", "read_stack", "read_stack_json", "input_socket", "StackError"]
+__all__ = ["apply_stack", "apply_preset", "read_stack", "read_stack_json", "input_socket", "StackError"]

@@ -334,7 +334,9 @@ class LAMELLA_OT_preset_apply(_MaterialOperator, bpy.types.Operator):
     preset: EnumProperty(name="Preset", items=preset_items)
 
     def run(self, context, mat):
-        _apply_file_stack(self, mat, presets.find(self.preset, paths.user_presets_dir()).load())
+        api.apply_preset(mat, self.preset)  # the stack, and the nodes of the preset's procedural inputs
+        self.report({"INFO"}, rpt_("{material}: {stack} applied ({model})").format(
+            material=mat.name, stack=mat.lamella.stack_name or rpt_("stack"), model=mat.lamella.picked_model))
 
 
 class LAMELLA_OT_preset_save(_MaterialOperator, bpy.types.Operator):

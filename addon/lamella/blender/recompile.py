@@ -44,7 +44,7 @@ from ..core import luts, stack_format
 from ..core.backends.osl.emit import osl_shader
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack, StackError
-from . import app_handlers, compiled, inspector, material_nodes, versioning
+from . import app_handlers, compiled, input_recipes, inspector, material_nodes, versioning
 from .animation import mirror_panel
 from .material_nodes import group_needed, osl_usable
 from .osl_compile import OSLCompileError, compile_source
@@ -271,6 +271,7 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     t0 = time.perf_counter()
     ensure_uids(settings)
     if not versioning.refuses_edits(settings):
+        input_recipes.link_pending(mat)  # a preset's procedural inputs, waiting for the Lamella node
         material_nodes.sync_inputs(mat)  # what is linked or animated, by layer, before the live set is read
     if settings.compiled_json:
         _guarded(mat, "checking the nodes", lambda: repair_needed(mat))

@@ -20,11 +20,16 @@ USER_PREFIX = "user:"
 
 @dataclass(frozen=True)
 class Preset:
+    """A preset: its stack file, and for a built-in one the procedural inputs it links into the
+    material's Lamella node (``inputs``: socket name -> recipe name, e.g. ``{"coat0_coverage":
+    "worn"}``; the recipes are node set-ups the Blender side builds, ``blender/input_recipes.py``)."""
+
     id: str  # "car_paint", or "user:<file stem>" for a user preset
     label: str
     description: str
     path: Path
     builtin: bool
+    inputs: tuple = ()  # ((socket name, recipe name), ...)
 
     def load(self) -> Stack:
         try:
@@ -35,8 +40,28 @@ class Preset:
 
 def builtin() -> list[Preset]:
     index = json.loads((PRESET_DIR / "INDEX.json").read_text())
-    return [Preset(p["id"], p["label"], p["description"], (PRESET_DIR / p["file"]).resolve(), True)
+    return [Preset(p["id"], p["label"], p["description"], (PRESET_DIR / p["file"]).resolve(), True,
+                   tuple(sorted(p.get("inputs", {}).items())))
             for p in index["presets"]]
+
+
+def check_inputs(preset: Preset) -> None:
+    """A ``StackError`` naming the preset and socket if an input it links is not a socket of its
+    stack's layers: ``coat<i>_<field>`` of an existing coat's kind, or ``base_<field>``."""
+    stack = preset.load()
+    for socket, recipe in preset.inputs:
+        layer, _, field = socket.partition("_")
+        if layer == "base":
+            kind = stack.base.kind
+        elif layer.startswith("coat") and layer[4:].isdigit() and int(layer[4:]) < len(stack.coats):
+            kind = stack.coats[int(layer[4:])].kind
+        else:
+            raise StackError("stack", None, f"preset {preset.id!r}: input {socket!r} names no layer of its stack")
+        if field not in {f.name for f in kind.fields}:
+            raise StackError("stack", None, f"preset {preset.id!r}: input {socket!r}: a {kind.type} has no field "
+                                            f"{field!r}")
+        if not isinstance(recipe, str) or not recipe:
+            raise StackError("stack", None, f"preset {preset.id!r}: input {socket!r} names no recipe")
 
 
 MAX_PRESET_BYTES = 1_000_000  # a stack file is a few kB
