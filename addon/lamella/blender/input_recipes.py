@@ -15,8 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-import bpy
-
 from ..core.registry import Registry, require_callables
 from . import face
 from .material_nodes import ensure_face
