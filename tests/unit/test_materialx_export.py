@@ -342,3 +342,21 @@ def test_a_partly_covering_coat_is_a_mix_of_its_layer_and_what_is_under_it():
         for doc in (mtlx.layered_document(_stack(layers, GOLD)), pbr):
             ok, message = validate(doc.text)
             assert ok, message
+
+
+def test_a_thin_film_is_the_closures_thinfilm_inputs_and_openpbrs_base_film():
+    layers = [{"ior": 1.5, "roughness": 0.05, "film_thickness": 400, "film_ior": 1.33}]
+    base = {**GOLD, "film_thickness": 250, "film_ior": 2.3}
+    root, nodes = _graph(mtlx.layered_document(_stack(layers, base)))
+    coat, metal = _inputs(nodes["coat0_bsdf"]), _inputs(nodes["base_bsdf"])
+    assert float(coat["thinfilm_thickness"].get("value")) == 400 and float(coat["thinfilm_ior"].get("value")) == 1.33
+    assert float(metal["thinfilm_thickness"].get("value")) == 250 and float(metal["thinfilm_ior"].get("value")) == 2.3
+    pbr = mtlx.open_pbr_document(_stack(layers, base))
+    assert 'name="thin_film_thickness" type="float" value="0.25"' in pbr.text
+    assert any("no film on its coat" in w for w in pbr.warnings)
+    if importlib.util.find_spec("MaterialX") is not None:
+        from lamella_dev.materialx_check import validate
+
+        for doc in (mtlx.layered_document(_stack(layers, base)), pbr):
+            ok, message = validate(doc.text)
+            assert ok, message

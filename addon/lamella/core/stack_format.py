@@ -24,13 +24,15 @@ CHANGES: dict[int, str] = {
     1: "The first versioned format: coats top to bottom under `layers`, a `base` of kind conductor, diffuse or "
        "dielectric, an optional `name`. Stacks written without a `format` key are read as format 1.",
     2: "Coats gain `coverage`, the fraction of the surface a coat covers (0 to 1; a format-1 coat covers all of it, "
-       "coverage 1).",
+       "coverage 1); coats, conductor and dielectric bases gain a thin film on their interface, `film_thickness` "
+       "(nm; 0, no film, as in format 1) and `film_ior`.",
 }
 
 
 def _coverage_whole(d: dict) -> dict:
-    """Format 1 to 2: every coat covers the whole surface, which is what a coat without a
-    ``coverage`` reads as (the field's default, 1), so the stack passes as it is."""
+    """Format 1 to 2: every coat covers the whole surface and no interface has a film, which is what
+    a layer without ``coverage`` and ``film_thickness`` reads as (their defaults, 1 and 0), so the
+    stack passes as it is."""
     return dict(d)
 
 

@@ -13,7 +13,7 @@ model that runs it, in float32 (and a sample in float64):
 - f cos at a random outgoing direction finite and not negative.
 
 Stacks that share a structure (``closures.structure_of``: coats, base kind, which layers are
-anisotropic, absorbing, scattering or partly covering) trace to one graph, so a batch of them is evaluated at once
+anisotropic, absorbing, scattering, partly covering or filmed) trace to one graph, so a batch of them is evaluated at once
 with its parameters as arrays: the graph is exactly what a single stack's evaluation runs. A
 sample of stacks also goes through the baked path (``staging.stage`` and ``evaluate_staged``, the
 shaders' table and closures, float32). A failing stack is shrunk (coats removed, fields set back
@@ -49,6 +49,7 @@ from lamella.core import api as core_api
 from lamella.core.backends.ir.closures import declared_params, structure_of, trace_closures
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.layers import BASE_KINDS
+from lamella.core.layers.film import FILM_IOR_MAX, FILM_IOR_MIN, FILM_THICKNESS_MAX
 from lamella.core.models.coverage import MAX_PARTIAL
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
 from lamella.core.models import UnsupportedStack
@@ -115,11 +116,11 @@ def draw_structure(rng) -> dict:
     absorbing, scattering."""
     n = int(rng.choice([0, 1, 2, MAX_COATS])) if rng.random() < 0.5 else int(rng.integers(0, MAX_COATS + 1))
     coats = [{"aniso": rng.random() < 0.3, "absorbing": rng.random() < 0.35, "scattering": rng.random() < 0.3,
-              "partial": False} for _ in range(n)]
+              "partial": False, "film": rng.random() < 0.2} for _ in range(n)]
     for i in rng.permutation(n)[:int(rng.integers(0, MAX_PARTIAL + 1))] if n else ():
         coats[int(i)]["partial"] = rng.random() < 0.5  # a coat on part of the surface (models.coverage)
     base = str(rng.choice(list(BASE_KINDS)))
-    return {"coats": coats, "base": base, "aniso": rng.random() < 0.3}
+    return {"coats": coats, "base": base, "aniso": rng.random() < 0.3, "film": rng.random() < 0.2}
 
 
 def draw_stack(rng, structure: dict) -> dict:
@@ -138,6 +139,8 @@ def draw_stack(rng, structure: dict) -> dict:
             d["g"] = _pick(rng, [0.0, 0.999, -0.999, G_MAX, -G_MAX], lambda: rng.uniform(-0.99, 0.99))
         if c.get("partial"):
             d["coverage"] = _pick(rng, [0.0, 1e-7, 0.5, 1.0 - 1e-7], rng.random)
+        if c.get("film"):
+            d.update(_film(rng))
         layers.append(d)
     kind = structure["base"]
     base = {"type": kind}
@@ -151,7 +154,16 @@ def draw_stack(rng, structure: dict) -> dict:
     if kind != "diffuse":
         base["roughness"] = _roughness(rng, structure["aniso"])
         base["rotation"] = _rotation(rng)
+        if structure.get("film"):
+            base.update(_film(rng))
     return {"layers": layers, "base": base}
+
+
+def _film(rng) -> dict:
+    """A thin film (``layers.film``): its thickness from a fraction of a nanometre (the fade-in) to
+    the limit, its index over the schema's range."""
+    return {"film_thickness": _pick(rng, [1e-7, 0.5, 1.0, 1e3, FILM_THICKNESS_MAX], lambda: rng.uniform(1.0, 2000.0)),
+            "film_ior": _pick(rng, [FILM_IOR_MIN, 1.0 + 1e-7, 1.33, FILM_IOR_MAX], lambda: rng.uniform(1.0, 2.5))}
 
 
 def directions(rng, n: int) -> np.ndarray:

@@ -19,7 +19,9 @@ needs no MaterialX package; ``lamella_dev.materialx_check`` validates them with 
     (counterclockwise about the normal, as Lamella's shaders turn it). A coat on part of the
     surface (``coverage`` below 1) is a ``mix`` (ibid., "mix") of its layer and what is under it,
     by a ``coat0_coverage`` input on the node (its value the stack's; a mask connects there):
-    the spatial mix Lamella's coverage is, exact because ``layer`` is linear in its base.
+    the spatial mix Lamella's coverage is, exact because ``layer`` is linear in its base. A layer's
+    thin film is its closure's ``thinfilm_thickness`` (nm) and ``thinfilm_ior`` (ibid.), evaluated
+    under the medium outside the surface.
 
 ``open_pbr_document(stack)``
     One ``open_pbr_surface`` (OpenPBR Surface specification v1.1) for a stack of at most one coat:
@@ -267,6 +269,27 @@ def _frame(g: _Graph, prefix: str, rotation: float, normal, tangent):
     return ("node", g.node("normalize", f"{prefix}_tangent_rotated", "vector3", **{"in": ("vector3", ("node", t))}))
 
 
+def _film(layer) -> dict:
+    """The ``thinfilm_thickness`` (nm) and ``thinfilm_ior`` inputs of a layer's closure, where it
+    has a film (MaterialX PBS specification v1.39, "dielectric_bsdf", "conductor_bsdf")."""
+    if getattr(layer, "film_thickness", 0.0) <= 0.0:
+        return {}
+    return {"thinfilm_thickness": ("float", _num(layer.film_thickness)), "thinfilm_ior": ("float", _num(layer.film_ior))}
+
+
+def _film_warnings(stack: Stack, warn) -> None:
+    n_above = 1.0
+    for i, c in enumerate(stack.coats):
+        if c.film_thickness > 0.0 and n_above != 1.0:
+            warn(i, ("film_thickness", "film_ior"), f"MaterialX evaluates the film as if under the medium outside "
+                 f"the surface, not under coat {i - 1} (index {n_above:g})")
+        n_above = c.ior
+    base = stack.base
+    if getattr(base, "film_thickness", 0.0) > 0.0 and n_above != 1.0:
+        warn("base", ("film_thickness", "film_ior"), f"MaterialX evaluates the film as if under the medium outside "
+             f"the surface, not under coat {len(stack.coats) - 1} (index {n_above:g})")
+
+
 def _single_scattering_warning(stack: Stack, warn) -> None:
     if stack.base.type == "conductor" and stack.base.roughness != (0.0, 0.0):
         warn("base", "roughness", "MaterialX's microfacet distribution is 'ggx', single scattering: the light a "
@@ -340,6 +363,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
     node = f"lamella_{name}"
     _coupling_warnings(stack, warn)
     _single_scattering_warning(stack, warn)
+    _film_warnings(stack, warn)
     indices = _index_warnings(stack, warn)
     n_bottom = stack.coats[-1].ior if stack.coats else 1.0
 
@@ -405,7 +429,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
                        ior=("color3", _vals(*(e / n_bottom for e in base.eta))),
                        extinction=("color3", _vals(*(k / n_bottom for k in base.k))),
                        roughness=("vector2", _vals(*base.roughness)), normal=("vector3", normal),
-                       tangent=("vector3", t))
+                       tangent=("vector3", t), **_film(base))
     elif base.type == "diffuse":
         below = g.node("oren_nayar_diffuse_bsdf", "base_bsdf", "BSDF", color=("color3", _vals(*base.albedo)),
                        roughness=("float", "0"), normal=("vector3", normal))
@@ -417,7 +441,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
         t = _frame(g, "base", base.rotation, normal, tangent)
         below = g.node("dielectric_bsdf", "base_bsdf", "BSDF", ior=("float", _num(base_ior)),
                        roughness=("vector2", _vals(*base.roughness)), normal=("vector3", normal),
-                       tangent=("vector3", t), scatter_mode=("string", "RT"))
+                       tangent=("vector3", t), scatter_mode=("string", "RT"), **_film(base))
 
     # the coats, bottom to top: each a layer over everything below it
     for i in reversed(range(len(stack.coats))):
@@ -427,7 +451,7 @@ def layered_document(stack: Stack) -> MaterialXExport:
         t = _frame(g, prefix, c.rotation, normal, tangent)
         top = g.node("dielectric_bsdf", f"{prefix}_bsdf", "BSDF", ior=("float", _num(indices[i][1])),
                      roughness=("vector2", _vals(*c.roughness)), normal=("vector3", normal),
-                     tangent=("vector3", t), scatter_mode=("string", "R"))
+                     tangent=("vector3", t), scatter_mode=("string", "R"), **_film(c))
         bare = below
         if c.has_absorption:
             below = g.node("multiply", f"{prefix}_absorption", "BSDF", in1=("BSDF", ("node", below)),
@@ -547,6 +571,16 @@ def open_pbr_document(stack: Stack) -> MaterialXExport:
         if turn != 0.0:
             rotations["geometry_tangent"] = ("base", turn)
 
+    # OpenPBR's thin film lies on the base's specular interface (thin_film_*, thickness in micrometres)
+    if getattr(base, "film_thickness", 0.0) > 0.0:
+        put("thin_film_weight", "float", "1")
+        put("thin_film_thickness", "float", _num(base.film_thickness / 1000.0))
+        put("thin_film_ior", "float", _num(base.film_ior))
+        if coat is not None:
+            warn("base", ("film_thickness", "film_ior"), "OpenPBR evaluates the film under the coat's index as its "
+                 "base's interface does")
+    if coat is not None and coat.film_thickness > 0.0:
+        warn(0, ("film_thickness", "film_ior"), "OpenPBR has no film on its coat: dropped")
     warnings = list(_by_layer(warnings))
     root = _document([
         f"Lamella stack {stack.name!r} ({len(stack.coats)} coat(s) over a {base.type} base), as OpenPBR Surface.",

@@ -5,6 +5,7 @@ description"). A coat whose ior equals the medium above and whose roughness is 0
 medium (dust, fog)."""
 from __future__ import annotations
 
+from . import film
 from .params import field_param, rgb_param, roughness_params
 from .schema import (ANGLE, ANGLE_MAX, FLOAT, G_MAX, IOR_MAX, IOR_MIN, RGB, ROUGHNESS, SIGMA_MAX, THICKNESS_MAX, Field,
                      layer_kind)
@@ -28,6 +29,7 @@ FIELDS = (
     Field("g", FLOAT, 0.0, "Henyey-Greenstein asymmetry of the interior's scattering", "",
           lo=-G_MAX, hi=G_MAX, soft=(-0.99, 0.99), label="Phase Asymmetry g",
           group="Medium"),
+    *film.FIELDS,
 )
 
 
@@ -42,7 +44,8 @@ def _has_scattering(self) -> bool:
 def params(ops, slot, coat) -> dict:
     """ior and roughness always; thickness and sigma_a only for an absorbing interior, sigma_s and
     g only for a scattering one (a clear coat traces to no medium code)."""
-    p = {"ior": field_param(ops, slot, "ior", coat.ior), **roughness_params(ops, slot, coat.roughness, coat.rotation)}
+    p = {"ior": field_param(ops, slot, "ior", coat.ior), **roughness_params(ops, slot, coat.roughness, coat.rotation),
+         **film.params(ops, slot, coat)}
     if coat.has_absorption or coat.has_scattering:
         p["thickness"] = field_param(ops, slot, "thickness", coat.thickness)
     if coat.has_absorption:

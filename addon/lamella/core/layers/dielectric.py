@@ -3,6 +3,7 @@ under a rough interface; light crossing it leaves the stack downward (coated gla
 ``ior`` 1 under a glass coat, a plate with air on both sides)."""
 from __future__ import annotations
 
+from . import film
 from .params import BaseResponse, field_param, roughness_params
 from .schema import ANGLE, ANGLE_MAX, FLOAT, IOR_MAX, IOR_MIN, ROUGHNESS, Field, layer_kind
 from ..models.rgb import RGB as RGBValue
@@ -14,21 +15,28 @@ FIELDS = (
           lo=0.0, hi=1.0, soft=(0.0, 1.0)),
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
           lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
+    *film.FIELDS,
 )
 
 
 def params(ops, slot, base) -> dict:
-    return {"ior": field_param(ops, slot, "ior", base.ior), **roughness_params(ops, slot, base.roughness, base.rotation)}
+    return {"ior": field_param(ops, slot, "ior", base.ior), **roughness_params(ops, slot, base.roughness, base.rotation),
+            **film.params(ops, slot, base)}
 
 
 def response(ops, p, mu, alpha, n_above) -> BaseResponse:
     """FGD of the rough dielectric interface (total internal reflection included when the
-    substrate is optically thinner), the rest transmitted (T = 1 - R, as for the coats)."""
+    substrate is optically thinner), under its thin film the film's (``models.film``), the rest
+    transmitted (T = 1 - R, as for the coats)."""
+    from ..models import film as film_model
     from ..models.fgd import fgd_dielectric
 
     eta = p["ior"] / n_above
-    r = fgd_dielectric(ops, mu, alpha, eta)
-    return BaseResponse(reflectance=RGBValue.splat(r), transmittance=RGBValue.splat(1.0 - r), eta=eta)
+    if film_model.has_film(p):
+        r = film_model.fgd(ops, mu, alpha, film_model.dielectric_curve(ops, p, n_above, p["ior"]))
+    else:
+        r = RGBValue.splat(fgd_dielectric(ops, mu, alpha, eta))
+    return BaseResponse(reflectance=r, transmittance=1.0 - r, eta=eta)
 
 
 KIND = layer_kind("dielectric", "base", "Dielectric", FIELDS, __doc__, params, response, transmits=True,

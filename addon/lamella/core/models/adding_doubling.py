@@ -50,6 +50,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from . import film
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction, trapped_escape
 from .hg import belcour_variance_of_g
@@ -131,11 +132,10 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     for index, p in enumerate(coats):
         ops.set_scope(f"coat{index}")
         n12 = p["ior"] / n_above
-        (Rs, Ts, R21s, T21s), kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_e12 = _dielectric_interface(
-            ops, Spread, mapping, p, sx, sy, cti, n12)
+        energies, kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_e12 = _dielectric_interface(
+            ops, Spread, mapping, p, sx, sy, cti, n_above, n12)
         added, weights, spreads, lobe = _add_interface(
-            ops, variant, mapping, index, sx, sy, n_above,
-            tuple(RGB.splat(x) for x in (Rs, Ts, R21s, T21s)), kappa, j12, s_r12, s_t12, s_t21, s_e12,
+            ops, variant, mapping, index, sx, sy, n_above, energies, kappa, j12, s_r12, s_t12, s_t21, s_e12,
             added, weights, spreads, j0i, ji0, A0i)
         lobes.append(lobe)
         j0i, ji0 = j0i * j12, ji0 * j21
@@ -178,9 +178,8 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
         s_t12 = s_t21 = s_e12 = Spread.zero()
     else:
         # a transmissive substrate: the same interface statistics as a coat's top interface
-        (Rs, Ts, R21s, T21s), kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_e12 = _dielectric_interface(
-            ops, Spread, mapping, base, sx, sy, cti, resp.eta)
-        interface = tuple(RGB.splat(x) for x in (Rs, Ts, R21s, T21s))
+        interface, kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_e12 = _dielectric_interface(
+            ops, Spread, mapping, base, sx, sy, cti, n_above, resp.eta)
     reach = added.T0i
     added, weights, spreads, lobe = _add_interface(
         ops, variant, mapping, index, sx, sy, n_above, interface, kappa, j12, s_r12, s_t12, s_t21, s_e12,
@@ -202,8 +201,9 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     return lobes
 
 
-def _dielectric_interface(ops, Spread, mapping, p, sx, sy, cti, n12):
-    """Energies (R12, T12 from above; R21, T21 from below), the relative ease kappa with which the
+def _dielectric_interface(ops, Spread, mapping, p, sx, sy, cti, n_above, n12):
+    """Energies (R12, T12 from above; R21, T21 from below; RGB: a thin film on the interface colours
+    them, ``film.dielectric_energies``), the relative ease kappa with which the
     light the interface reflects from below comes through it again (``_adding_energies``),
     refracted mean direction, Jacobians and spreads (reflected; transmitted down and up;
     transmitted down as it decides escape) of a rough dielectric interface from index n_above onto
@@ -242,7 +242,8 @@ def _dielectric_interface(ops, Spread, mapping, p, sx, sy, cti, n12):
     # would gain a factor up to n / COS_FLOOR per TIR and overflow float32).
     j12 = ops.select(transmits, n12 * ctt / ops.max(cti, COS_FLOOR), 0.0)
     j21 = ops.select(transmits, ops.max(cti, COS_FLOOR) / (n12 * ops.max(ctt, COS_FLOOR)), 0.0)
-    return (R12s, 1.0 - R12s, R21s, 1.0 - R21s), kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_esc
+    R12, R21 = film.dielectric_energies(ops, p, fetch_mu, fetch_alpha, n_above, p["ior"], R12s, R21s, transmits)
+    return (R12, 1.0 - R12, R21, 1.0 - R21), kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_esc
 
 
 def _add_interface(ops, variant, mapping, index, sx, sy, n_above, interface, kappa, j12, s_r12, s_t12, s_t21,

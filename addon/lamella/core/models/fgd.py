@@ -128,7 +128,7 @@ def fresnel_average(ops, fresnel):
     return ops.clamp(total, 0.0, 1.0)
 
 
-def conductor_scattered(ops, mu, alpha, eta: RGB, k: RGB, single: RGB) -> RGB:
+def conductor_scattered(ops, mu, alpha, eta: RGB, k: RGB, single: RGB, f_avg: RGB | None = None) -> RGB:
     """What a rough conductor reflects after scattering more than once on its microsurface, per
     channel, from its single-scattering FGD ``single``: single F_avg (1 - E) / E, E = GD the albedo
     with F = 1 and F_avg the hemispherical average of the Fresnel factor (Turquin 2019's
@@ -138,15 +138,17 @@ def conductor_scattered(ops, mu, alpha, eta: RGB, k: RGB, single: RGB) -> RGB:
     at alpha 0.5 at normal incidence; against the random walk on the microsurface (Heitz et al.
     2016) gold of alpha 0.3 at 60 degrees is then within 0.3 % in red and green and 2.2 % short in
     blue (with F0, 3.1 %). The light leaves broad, and under a coat the models send it up as a Lambertian
-    base's (``diffuse_transport.DiffuseUp``)."""
+    base's (``diffuse_transport.DiffuseUp``). ``f_avg``: F_avg per channel where the Fresnel curve is
+    not the bare conductor's (under a thin film, ``models.film``)."""
     e = gd(ops, mu, alpha)
     lost = ops.max(1.0 - e, 0.0) / ops.max(e, 1e-4)  # GD <= 1; its table may exceed 1 in the last digit
     # With single = F E (F <= 1 a mean Fresnel factor) the total is F E + F F_avg (1 - E) <= 1; but
     # FGD and GD come from two tables, and for a mirror-like metal (F = 1) FGD may exceed GD in
     # their last digits: never more than what single scattering leaves
-    return RGB(*(ops.min(s * fresnel_average(ops, lambda c, ee=ee, kk=kk: fresnel_conductor(ops, c, ee, kk)) * lost,
-                         ops.max(1.0 - s, 0.0))
-                 for s, ee, kk in zip(single, eta, k)))
+    if f_avg is None:
+        f_avg = RGB(*(fresnel_average(ops, lambda c, ee=ee, kk=kk: fresnel_conductor(ops, c, ee, kk))
+                      for ee, kk in zip(eta, k)))
+    return RGB(*(ops.min(s * fa * lost, ops.max(1.0 - s, 0.0)) for s, fa in zip(single, f_avg)))
 
 
 def tir_fraction(ops, sx, sy, n_inside, alpha):

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import hg
+from . import film, hg
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction
 from .homogeneous_medium import slab
@@ -241,7 +241,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         ops.set_scope(f"coat{index}")
         n12 = p["ior"] / n_above
         alpha = rms_alpha(ops, p["ax"], p["ay"])
-        R, T, R21, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1)
+        R, T, R21, ctt, g_r, g1_new = _interface(ops, cti, alpha, n12, g1, p, n_above)
         alpha_next = _next_alpha(ops, coats, base, index)
         # escape back into the medium above, at the spread of the light the next interface sends up
         alpha_up = hg.alpha_of_g(ops, g1_new * hg.g_of_alpha(ops, alpha_next))
@@ -254,11 +254,11 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
             # base, scattered again): it escapes through the cone of the broadest lobe
             tir_s = tir_fraction(ops, sx / n12, sy / n12, n12, SECONDARY_ESCAPE_ALPHA)
             ups[F] = ups[B] = (R + T * (1.0 - tir_s), T * tir_s)
-        up = {(k, k): RGB.splat(ups[k][0]) for k in range(n)}
-        tup = {(k, k): RGB.splat(ups[k][1]) for k in range(n)}
-        ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), up, tup)
+        up = {(k, k): ups[k][0] for k in range(n)}
+        tup = {(k, k): ups[k][1] for k in range(n)}
+        ce = Component(_diag(R, n), _diag(T, n), up, tup)
         g_tu = _upward_transmission_g(ops, g1_new, alpha_next, alpha, n12)
-        cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n),
+        cg = Component(_diag(R * g_r, n), _diag(T * g_t, n),
                        {k: v * g_r for k, v in up.items()}, {k: v * g_tu for k, v in tup.items()})
         add(ce, cg)
         diffuse_up.add_interface(ops, n12)
@@ -292,10 +292,10 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
                                             SCATTERED_POINTS),
                               0.0, 0.0, 0.0, "diffuse"))
     else:
-        R, T, _, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1)
+        R, T, _, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1, base, n_above)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
-        ce = Component(_diag(RGB.splat(R), n), _diag(RGB.splat(T), n), {}, {})
-        cg = Component(_diag(RGB.splat(R * g_r), n), _diag(RGB.splat(T * g_t), n), {}, {})
+        ce = Component(_diag(R, n), _diag(T, n), {}, {})
+        cg = Component(_diag(R * g_r, n), _diag(T * g_t, n), {}, {})
         add(ce, cg)
         # Eq. 25: everything crossing the base, every family, leaves as one transmission lobe
         e = E.td[(P, P)]
@@ -311,16 +311,18 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     return lobes
 
 
-def _interface(ops, cti, alpha, n12, g1):
-    """Energies and asymmetries of a rough dielectric interface at the mean direction cosine cti
-    from index n1 onto n2 = n1 n12: (R, T from above, R21 from below along the refracted mean
-    direction (the interface's whole reflectance, as ``adding_doubling`` takes it), cos of the
-    refracted mean direction, g_R, first-order g of the transmitted primary, Eq. 22)."""
+def _interface(ops, cti, alpha, n12, g1, p, n_above):
+    """Energies and asymmetries of a rough dielectric interface (the layer's params ``p``) at the
+    mean direction cosine cti from index n1 = ``n_above`` onto n2 = n1 n12: (R, T from above, R21
+    from below along the refracted mean direction (the interface's whole reflectance, as
+    ``adding_doubling`` takes it), RGB (a thin film colours them, ``film.dielectric_energies``),
+    cos of the refracted mean direction, g_R, first-order g of the transmitted primary, Eq. 22)."""
     cos2_num = n12 * n12 - 1.0 + cti * cti
     transmits = cos2_num > 0.0
     ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
     R = ops.select(transmits, fgd_dielectric(ops, cti, alpha, n12), 1.0)
     R21 = ops.select(transmits, fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True), 1.0)
+    R, R21 = film.dielectric_energies(ops, p, cti, alpha, n_above, p["ior"], R, R21, transmits)
     # Belcour 2018's fake-refraction scale at normal incidence, as the adding-doubling models use
     # it: a facet tilt d deviates a refracted ray by d |1 - 1 / n12|, a reflected one by 2 d, so the
     # refracted lobe is a reflection lobe of roughness alpha |n12 - 1| / (2 n12). (The scale of
