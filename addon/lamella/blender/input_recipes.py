@@ -1,5 +1,6 @@
 """Procedural inputs a preset links into a material's Lamella node: node set-ups an artist would
-build by hand (a wear mask, dust on the faces that look up), named so that a preset can ask for
+build by hand (a wear mask, dust on the faces that look up, an oil film's swirling thickness, a
+soap film draining), named so that a preset can ask for
 them (``core.presets.Preset.inputs``: socket name -> recipe name).
 
 A recipe builds its nodes into any shader node tree (a material's, or the node-group library's
@@ -72,8 +73,47 @@ def _upward(tree, add):
     return ramp, ramp.outputs["Result"]
 
 
+def _oil_swirl(tree, add):
+    """An oil film's thickness swirling across the surface: a distorted noise in object space mapped
+    to 150-650 nm (the first orders' vivid colours)."""
+    coords = add("ShaderNodeTexCoord")
+    noise = add("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 1.5
+    noise.inputs["Detail"].default_value = 3.0
+    noise.inputs["Distortion"].default_value = 2.0
+    ramp = add("ShaderNodeMapRange")
+    ramp.inputs["From Min"].default_value = 0.3
+    ramp.inputs["From Max"].default_value = 0.7
+    ramp.inputs["To Min"].default_value = 150.0
+    ramp.inputs["To Max"].default_value = 650.0
+    ramp.clamp = True
+    tree.links.new(coords.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], ramp.inputs["Value"])
+    return ramp, ramp.outputs["Result"]
+
+
+def _drainage(tree, add):
+    """A soap film draining under gravity: thin at the top (150 nm) and thick at the bottom
+    (900 nm), along the object's z."""
+    coords = add("ShaderNodeTexCoord")
+    split = add("ShaderNodeSeparateXYZ")
+    ramp = add("ShaderNodeMapRange")
+    ramp.inputs["From Min"].default_value = 1.0
+    ramp.inputs["From Max"].default_value = -1.0
+    ramp.inputs["To Min"].default_value = 150.0
+    ramp.inputs["To Max"].default_value = 900.0
+    ramp.clamp = True
+    tree.links.new(coords.outputs["Object"], split.inputs["Vector"])
+    tree.links.new(split.outputs["Z"], ramp.inputs["Value"])
+    return ramp, ramp.outputs["Result"]
+
+
 WORN = register(InputRecipe("worn", "Wear mask", "patches where a coat is rubbed off (a noise in object space)", _worn))
 UPWARD = register(InputRecipe("upward", "Faces looking up", "where a face looks up (the world normal's z)", _upward))
+OIL_SWIRL = register(InputRecipe("oil_swirl", "Oil film swirl", "an oil film's thickness swirling (150-650 nm)",
+                                 _oil_swirl))
+DRAINAGE = register(InputRecipe("drainage", "Soap film drainage", "a soap film thin at the top, thick at the bottom "
+                                "(150-900 nm)", _drainage))
 
 
 def build(tree, name: str, socket_name: str = "", location=(0.0, 0.0)):

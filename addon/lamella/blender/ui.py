@@ -185,7 +185,7 @@ def draw_fields(layout, kind, pg, panel_prefix: str, enabled_fields=None) -> Non
             continue
         _draw_field(col, kind, pg, f, enabled_fields)
     for group, fields in groups.items():
-        header, body = layout.panel(f"{panel_prefix}_{group.lower()}", default_closed=True)
+        header, body = layout.panel(f"{panel_prefix}_{group.lower().replace(' ', '_')}", default_closed=True)
         header.label(text=group)
         if body is not None:
             bcol = body.column()
