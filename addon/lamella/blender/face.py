@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 from ..core.backends.osl.emit import ENGINE_SWITCH
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
-from ..core.param_id import AXES, socket_name
+from ..core.param_id import AXES, NORMAL as NORMAL_FIELD, layer_prefix, normal_socket, socket_name
 from .kind_hooks import hooks
 from .node_group import shared_group
 from .osl_compile import set_socket
@@ -130,7 +130,11 @@ def _field_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool
 def _layer_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool) -> list[FaceInput]:
     inputs = _field_inputs(kind, pg, uid, label, layer, shown)
     hook = hooks(kind.type).face_inputs
-    return hook(pg, inputs, uid, label) if hook is not None else inputs
+    inputs = hook(pg, inputs, uid, label) if hook is not None else inputs
+    # the layer's own normal (a bump on a coat, flakes on the base): unlinked, the shading normal
+    return inputs + [FaceInput(f"{uid}/{NORMAL_FIELD}", f"{label}: Normal", "NodeSocketVector", "NONE",
+                               (0.0, 0.0, 0.0), None, None, normal_socket(layer_prefix(layer)) if shown else None,
+                               field=NORMAL_FIELD)]
 
 
 def face_inputs(settings) -> list[FaceInput]:
@@ -189,7 +193,7 @@ def sync_interface(tree, inputs: list[FaceInput]) -> None:
         if s.name != name:
             s.name = name
         i = spec.get(key)
-        if i is None:
+        if i is None or i.socket_type == "NodeSocketVector":  # Normal, Tangent, a layer's own normal
             s.hide_value = True
         else:
             if hasattr(s, "subtype") and s.subtype != i.subtype:
@@ -353,7 +357,7 @@ def wire(tree, inputs: list[FaceInput], script, group, live=frozenset()) -> None
     clamped = {}
 
     def clamp(key):
-        if key not in live:
+        if key not in live or spec[key][1].socket_type == "NodeSocketVector":  # a normal is a direction
             return port(key)
         if key not in clamped:
             k, i = spec[key]

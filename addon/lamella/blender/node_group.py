@@ -27,6 +27,7 @@ from ..core import luts
 from ..core.backends.ir.sockets import by_param, sockets
 from ..core.backends.nodes.partition import partition
 from ..core.backends.nodes.plan import Out, Plan, input_name, value_type
+from ..core.param_id import normal_socket
 from .osl_compile import set_socket
 
 CHUNK_PREFIX = ".lamella_chunk_"  # a leading dot hides the nested groups from Blender's lists
@@ -381,6 +382,17 @@ def _shared_frame(nt, gin, view_frame: bool, location):
     return out[0], out[1], out[2], out[3], out[4:]
 
 
+def _layer_frame(g: _Vec, normal_in, frame):
+    """The frame of a layer's own normal (its input; the shading normal where the input is zero):
+    that normal, the shading tangent made orthogonal to it (the bitangent where the tangent lies
+    along it), their cross product; the view and ``wi`` of the shading ``frame``."""
+    n, t, b, v, wi = frame
+    nl = g.vmath("NORMALIZE", g.pick(g.nonzero(normal_in), normal_in, n))
+    tl = g.project(t, nl)
+    tl = g.vmath("NORMALIZE", g.pick(g.nonzero(tl), tl, g.project(b, nl)))
+    return nl, tl, g.vmath("CROSS_PRODUCT", nl, tl), v, wi
+
+
 def _local_to_world(g: _Vec, comps, frame, src):
     """The world vector of local components ``comps`` (plan values): x T + y B + z N."""
     n, t, b, v, wi = frame
@@ -425,6 +437,7 @@ def build_group(plan: Plan, name: str, tree=None):
         material_table_image(image, pixels)
     frame = _shared_frame(nt, gin, plan.frame == "view", (-X_STEP, 400.0))
     wi = frame[4]
+    layer_frames = {n: _layer_frame(g, gin.outputs[normal_socket(n)], frame) for n in plan.normals}
     leaf_src = {}
     convert = by_param(plan.ids)
     colours = {}
@@ -507,7 +520,7 @@ def build_group(plan: Plan, name: str, tree=None):
                 s.default_value = v
         for sock, comps in b.vectors.items():
             if comps is not None:
-                nt.links.new(_local_to_world(g, comps, frame, src), bsdf.inputs[sock])
+                nt.links.new(_local_to_world(g, comps, layer_frames.get(b.frame, frame), src), bsdf.inputs[sock])
         if shader is None:
             shader = bsdf.outputs[0]
         else:
@@ -543,6 +556,7 @@ def _sync_interface(tree, plan: Plan):
     shown = {sk.name: sk for sk in sockets(plan.ids)}
     want = [(sk.name, "NodeSocketColor" if sk.kind == "color" else "NodeSocketFloat") for sk in shown.values()]
     want += [("Normal", "NodeSocketVector"), ("Tangent", "NodeSocketVector")]
+    want += [(normal_socket(n), "NodeSocketVector") for n in plan.normals]
     items = {(s.name, s.in_out): s for s in tree.interface.items_tree if s.item_type == "SOCKET"}
     for (nm, io), s in list(items.items()):
         if io == "INPUT" and (nm not in dict(want) or s.socket_type != dict(want)[nm]):

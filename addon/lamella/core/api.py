@@ -79,11 +79,17 @@ def lobes(stack, wi, model="auto", dtype=np.float64) -> Lobes:
     )
 
 
-def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True) -> np.ndarray:
+def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True, normals=None) -> np.ndarray:
     """f(wi, wo) * |wo.z| as an (N, 3) array (wi broadcasts against wo). ``deltas=False`` leaves
     out the lobes of zero roughness (smooth interfaces), which a pointwise comparison cannot see:
     evaluated at the roughness floor they are a spike at the one direction nearest the mirror, and
-    a reference that estimates f pointwise never samples a delta (their energy is in ``albedo``)."""
+    a reference that estimates f pointwise never samples a delta (their energy is in ``albedo``).
+
+    ``normals``: layers with a normal of their own, ``{"coat0": n, "base": n}`` (unit vectors in the
+    shading frame, (3,) or (N, 3)), as a material whose layers' Normal inputs are linked renders
+    them: the model's energies are the stack's at ``wi`` about the shading normal, and each lobe
+    of such a layer (``Lobe.normal``) is the closure the shaders make about that normal (its
+    tangent the shading tangent made orthogonal to it), its cosine factor about it too."""
     wo = _dirs(wo, dtype)
     wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
     ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
@@ -91,8 +97,34 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True)
         ls = [lobe for lobe in ls if not (lobe_kinds.kind(lobe.kind).rough and np.all(np.asarray(lobe.alpha_x) == 0.0)
                                           and np.all(np.asarray(lobe.alpha_y) == 0.0))]
     wo_vals = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
-    f = lobe_kinds.eval_lobes_cos(ops, ls, wi_vals, wo_vals)
+    normals = normals or {}
+    plain = [lobe for lobe in ls if lobe.normal not in normals]
+    f = lobe_kinds.eval_lobes_cos(ops, plain, wi_vals, wo_vals)
+    for lobe in ls:
+        if lobe.normal in normals:
+            frame = layer_frame(np.broadcast_to(_dirs(normals[lobe.normal], dtype), wo.shape))
+            k = lobe_kinds.kind(lobe.kind)
+            a = k.args(ops, lobe, wi_vals)
+            f = f + lobe.weight * (k.cos_of_args(ops, a, _in(frame, wi, ops), _in(frame, wo, ops))
+                                   * k.scale_of_args(ops, a, wi_vals))
     return np.stack([_full(c, wo.shape[0], ops.dtype) for c in f], -1)
+
+
+def layer_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tangent, bitangent, normal) of a layer's own normal ``n`` ((N, 3) in the shading frame): the
+    shading tangent x made orthogonal to it (the bitangent y where x lies along it), as the shaders
+    make it."""
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    t = np.array([1.0, 0.0, 0.0]) - n[:, :1] * n
+    alt = np.array([0.0, 1.0, 0.0]) - n[:, 1:2] * n
+    t = np.where(np.linalg.norm(t, axis=-1, keepdims=True) < 1e-6, alt, t)
+    t = t / np.linalg.norm(t, axis=-1, keepdims=True)
+    return t, np.cross(n, t), n
+
+
+def _in(frame, w, ops):
+    """``w`` ((N, 3), shading frame) in the components of ``frame``, as backend values."""
+    return tuple(ops.input(f"w_{k}", np.sum(w * axis, -1)) for k, axis in enumerate(frame))
 
 
 def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64) -> np.ndarray:
@@ -105,4 +137,4 @@ def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64) -> np.nd
     return lb.weight[:, sel, :].sum(1)
 
 
-__all__ = ["MODELS", "Lobes", "lobes", "evaluate", "albedo", "UnsupportedStack"]
+__all__ = ["MODELS", "Lobes", "lobes", "evaluate", "albedo", "layer_frame", "UnsupportedStack"]

@@ -48,6 +48,22 @@ def socket_name(layer: int | None, field: str, axis: str = "") -> str:
     return f"{layer_prefix(layer)}_{field}" + (f"_{axis}" if axis else "")
 
 
+NORMAL = "normal"  # a layer's own normal: a shader input of its own (``normal_socket``), not a model parameter
+
+
+def normal_socket(layer_name: str) -> str:
+    """The shader input of a layer's own normal, by the layer's prefix: ``coat0_normal``,
+    ``base_normal``."""
+    return f"{layer_name}_{NORMAL}"
+
+
+def split_normals(live) -> tuple[tuple, tuple]:
+    """``live`` (socket or parameter names) without the layers' normals, and the layers (prefixes,
+    sorted) whose normal is among them."""
+    normals = tuple(sorted(n[: -len(NORMAL) - 1] for n in live if n.endswith(f"_{NORMAL}")))
+    return tuple(n for n in live if not n.endswith(f"_{NORMAL}")), normals
+
+
 @dataclass(frozen=True)
 class ParamId:
     """One model parameter: ``layer`` (coat index from the top, None for the base), ``field`` (the
@@ -113,5 +129,5 @@ def slots(stack) -> tuple[list[LayerSlot], LayerSlot]:
             LayerSlot(None, stack.base.kind.fields))
 
 
-__all__ = ["LayerSlot", "slots", "ALPHA", "COLOUR_CHANNELS", "AXES", "ParamId", "alpha_from_r", "r_from_alpha",
+__all__ = ["LayerSlot", "slots", "NORMAL", "normal_socket", "split_normals", "ALPHA", "COLOUR_CHANNELS", "AXES", "ParamId", "alpha_from_r", "r_from_alpha",
            "layer_prefix", "layer_label", "socket_name"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 from ..models.rgb import RGB
 from . import backscatter, diffuse, reflection, transmission
 from .bsdf_node import BsdfNode
-from .kind import GD_FLOOR, KINDS, SIDES, LobeKind
+from .kind import GD_FLOOR, KINDS, SHADING_FRAME, SIDES, LobeKind, osl_frame
 
 
 def register(kind_: LobeKind) -> LobeKind:
@@ -48,4 +48,5 @@ def eval_lobes_cos(ops, lobes, wi, wo):
 for _module in (reflection, diffuse, backscatter, transmission):
     register(_module.KIND)
 
-__all__ = ["LobeKind", "BsdfNode", "KINDS", "SIDES", "GD_FLOOR", "register", "unregister", "kind", "eval_lobes_cos"]
+__all__ = ["LobeKind", "BsdfNode", "KINDS", "SIDES", "GD_FLOOR", "SHADING_FRAME", "osl_frame", "register", "unregister", "kind",
+           "eval_lobes_cos"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 
 from .bsdf_node import BsdfNode
-from .kind import LobeKind
+from .kind import LobeKind, osl_frame
 
 
 def _lambert_closure_cos(ops, a, wi, wo):
@@ -20,7 +20,7 @@ def _no_args(ops, lobe, wi):
 
 
 def _osl_diffuse(a: dict) -> str:
-    return "diffuse(Normal)"
+    return f"diffuse({osl_frame(a)[0]})"
 
 
 def _bsdf_diffuse(ops, a, wi):

@@ -19,7 +19,8 @@ class LobeKind:
     closure evaluates); ``scale_of_args(ops, a, wi)``: the normaliser that makes the closure carry
     its lobe's energy; ``side``: ``"reflected"`` or ``"transmitted"``; ``description``: one line
     for docs and tables; ``osl(a)``: the Cycles OSL closure call of weight 1, given the printed
-    expressions of the arguments (``Tn``, ``Bn`` and ``Normal`` are the shader's shading frame);
+    expressions of the arguments and the frame it is about (``osl_frame(a)``: the shading frame
+    ``Normal``, ``Tn``, ``Bn``, or the frame of the layer's own normal);
     ``node(ops, a, wi)``: the Blender BSDF node (``bsdf_node.BsdfNode``) that makes the closure in
     Cycles without OSL, and in EEVEE what EEVEE makes of that node; ``rough``: the lobe is a
     microfacet lobe, a delta at zero roughness. ``closure_cos`` and ``scale`` are the same of a
@@ -40,6 +41,16 @@ class LobeKind:
 
     def scale(self, ops, lobe, wi):
         return self.scale_of_args(ops, self.args(ops, lobe, wi), wi)
+
+
+FRAME_KEYS = ("N", "T", "B")  # the frame an OSL printer is given among its arguments (``osl_frame``)
+SHADING_FRAME = ("Normal", "Tn", "Bn")  # the shader's shading frame (normal, tangent, bitangent)
+
+
+def osl_frame(a: dict) -> tuple[str, str, str]:
+    """(normal, tangent, bitangent) an OSL printer writes its closure about: the frame the emitter
+    gives among the arguments (a layer's own normal), else the shading frame."""
+    return tuple(a.get(k, d) for k, d in zip(FRAME_KEYS, SHADING_FRAME))
 
 
 def _complete(kind: LobeKind) -> None:

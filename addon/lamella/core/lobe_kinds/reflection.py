@@ -6,7 +6,7 @@ from ..models.fgd import gd
 from ..models.ggx import ggx_lobe_cos
 from ..models.variance import rms_alpha
 from .bsdf_node import BsdfNode, blender_anisotropy
-from .kind import GD_FLOOR, LobeKind
+from .kind import GD_FLOOR, LobeKind, osl_frame
 
 
 def _ggx_closure_cos(ops, a, wi, wo):
@@ -24,13 +24,15 @@ def _ggx_args(ops, lobe, wi):
     return {"ax": lobe.alpha_x, "ay": lobe.alpha_y, "cos": ops.cos(lobe.rotation), "sin": ops.sin(lobe.rotation)}
 
 
-def _osl_tangent(c: str, s: str) -> str:
-    return "Tn" if (c, s) == ("1.0", "0.0") else f"normalize({c} * Tn + {s} * Bn)"
+def _osl_tangent(c: str, s: str, t: str = "Tn", b: str = "Bn") -> str:
+    return t if (c, s) == ("1.0", "0.0") else f"normalize({c} * {t} + {s} * {b})"
+
 
 def _osl_ggx_reflection(a: dict) -> str:
     """Cycles' single-scattering GGX reflection without Fresnel (refract = 0) on the lobe's axes:
-    the shading tangent turned by the lobe rotation about the normal."""
-    return f'microfacet("ggx", Normal, {_osl_tangent(a["cos"], a["sin"])}, {a["ax"]}, {a["ay"]}, 1.0, 0)'
+    the frame's tangent turned by the lobe rotation about its normal."""
+    n, t, b = osl_frame(a)
+    return f'microfacet("ggx", {n}, {_osl_tangent(a["cos"], a["sin"], t, b)}, {a["ax"]}, {a["ay"]}, 1.0, 0)'
 
 
 def _bsdf_ggx_reflection(ops, a, wi):

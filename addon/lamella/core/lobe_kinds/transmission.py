@@ -10,7 +10,7 @@ from ..luts import REFRACT_ETA
 from ..models.ggx import ALPHA_EVAL_MIN, smith_s
 from ..models.variance import rms_alpha
 from .bsdf_node import BsdfNode
-from .kind import GD_FLOOR, LobeKind
+from .kind import GD_FLOOR, LobeKind, osl_frame
 
 
 def _refracted_mirror(ops, lobe, wi):
@@ -103,7 +103,8 @@ def _transmission_args(ops, lobe, wi):
 def _osl_transmission(a: dict) -> str:
     """Cycles' refracting GGX closure (refract = 1) at index REFRACT_ETA about the closure normal
     given in the local frame."""
-    n = f'normalize({a["nx"]} * Tn + {a["ny"]} * Bn + {a["nz"]} * Normal)'
+    nn, t, b = osl_frame(a)
+    n = f'normalize({a["nx"]} * {t} + {a["ny"]} * {b} + {a["nz"]} * {nn})'
     return f'microfacet("ggx", {n}, {a["alpha"]}, {REFRACT_ETA!r}, 1)'
 
 

@@ -56,7 +56,7 @@ from .fgd import fgd_dielectric, tir_fraction, trapped_escape
 from .hg import belcour_variance_of_g
 from .rgb import RGB
 from .roughness import MAPPINGS
-from .types import COS_FLOOR, Lobe, layer_params
+from .types import COS_FLOOR, Lobe, layer_normal, layer_params
 from .variance import AxisVariance, CovarianceVariance, ScalarVariance
 
 
@@ -137,6 +137,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
         added, weights, spreads, lobe = _add_interface(
             ops, variant, mapping, index, sx, sy, n_above, energies, kappa, j12, s_r12, s_t12, s_t21, s_e12,
             added, weights, spreads, j0i, ji0, A0i)
+        lobe.normal = layer_normal(stack, index)
         lobes.append(lobe)
         j0i, ji0 = j0i * j12, ji0 * j21
         cti, sx, sy = ctt, tsx, tsy
@@ -163,7 +164,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     if not base_kind.interface:
         # A Lambertian base: everything that reaches it becomes diffuse light going up
         albedo = base_kind.response(ops, base, cti, 0.0, n_above).albedo
-        lobes.append(Lobe(diffuse_up.base_energy(ops, added.T0i, albedo), 0.0, 0.0, 0.0, "diffuse"))
+        lobes.append(Lobe(diffuse_up.base_energy(ops, added.T0i, albedo), 0.0, 0.0, 0.0, "diffuse", normal="base"))
         ops.set_scope("lobes")
         return lobes
 
@@ -184,19 +185,20 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     added, weights, spreads, lobe = _add_interface(
         ops, variant, mapping, index, sx, sy, n_above, interface, kappa, j12, s_r12, s_t12, s_t21, s_e12,
         added, weights, spreads, j0i, ji0, A0i, None if resp.scattered is None else resp.reflectance + resp.scattered)
+    lobe.normal = "base"
     lobes.append(lobe)
     if resp.scattered is not None:
         # what the base's microsurface scatters more than once leaves it broad: up through the
         # coats as a Lambertian base's light, what they return reflected again
         lobes.append(Lobe(diffuse_up.emitted(ops, reach * resp.scattered, resp.reflectance + resp.scattered,
                                             SCATTERED_POINTS),
-                          0.0, 0.0, 0.0, "diffuse"))
+                          0.0, 0.0, 0.0, "diffuse", normal="base"))
     if resp.transmittance is not None:
         # What crossed every interface leaves downward: one GGX transmission lobe with the
         # accumulated transmitted spread, refracting as a single interface from vacuum into the
         # substrate (parallel interfaces: n sin(theta) is conserved through the stack).
         tax, tay, trot = spreads[1].to_lobe(ops, mapping)
-        lobes.append(Lobe(added.T0i, tax, tay, trot, "transmission", base["ior"]))
+        lobes.append(Lobe(added.T0i, tax, tay, trot, "transmission", base["ior"], normal="base"))
     ops.set_scope("lobes")
     return lobes
 

@@ -153,7 +153,8 @@ def endf(ops, stack, wi) -> list[Lobe]:
     d_in = _cos_difference(ops, mu, eta, c)
     v_exit = convolve(ops, v1 * d_in * d_in / mu, v2 * 4.0 * eta * eta * c * c / mu, v1 * d_in * d_in / mu)
     sub = v_to_alpha(ops, v_exit / (4.0 * mu))
-    out = [Lobe(lobes[0].weight, coat["ax"], coat["ax"], 0.0), Lobe(lobes[1].weight, sub, sub, 0.0)]
+    out = [Lobe(lobes[0].weight, coat["ax"], coat["ax"], 0.0, normal=lobes[0].normal),
+           Lobe(lobes[1].weight, sub, sub, 0.0, normal="base")]
     out += [lobe for lobe in lobes[2:] if lobe.kind == "diffuse"]  # a rough conductor's broad light
     if len(lobes) > 2 and lobes[2].kind == "transmission":
         # Eqs. 23-24: through the coat and the substrate (index n2, refracted cosine c_2)
@@ -163,6 +164,6 @@ def endf(ops, stack, wi) -> list[Lobe]:
         d_base = _cos_difference(ops, c, e12, cs)
         v_t = convolve(ops, v1 * d_in * d_in / (n2 * n2 * cs), v2 * d_base * d_base / (e12 * e12 * cs))
         at = transmission_alpha_of_spread(ops, v_to_alpha(ops, v_t))
-        out.append(Lobe(lobes[2].weight, at, at, 0.0, "transmission", n2))
+        out.append(Lobe(lobes[2].weight, at, at, 0.0, "transmission", n2, normal="base"))
     ops.set_scope("lobes")
     return out

@@ -63,7 +63,7 @@ from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction
 from .homogeneous_medium import slab
 from .rgb import RGB
-from .types import COS_FLOOR, Lobe, UnsupportedStack, layer_params
+from .types import COS_FLOOR, Lobe, UnsupportedStack, layer_normal, layer_params
 from .variance import rms_alpha
 
 P, F, B = 0, 1, 2
@@ -218,7 +218,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     E, G = _empty(n), _empty(n)
     lobes: list[Lobe] = []
 
-    def add(ce: Component, cg: Component):
+    def add(ce: Component, cg: Component, layer: str):
         nonlocal E, G
         E_new = _stack(ops, E, ce, n)
         G_new = _within_energy(ops, _stack(ops, G, cg, n), E_new)
@@ -234,7 +234,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
             if fam == B:
                 g = ops.abs(g)  # about the reversed direction (Eq. 34's sign convention)
             a = hg.alpha_of_g(ops, g)
-            lobes.append(Lobe(e, a, a, 0.0, FAMILY_KINDS[fam]))
+            lobes.append(Lobe(e, a, a, 0.0, FAMILY_KINDS[fam], normal=layer))
         E, G = E_new, G_new
 
     for index, p in enumerate(coats):
@@ -260,12 +260,12 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         g_tu = _upward_transmission_g(ops, g1_new, alpha_next, alpha, n12)
         cg = Component(_diag(R * g_r, n), _diag(T * g_t, n),
                        {k: v * g_r for k, v in up.items()}, {k: v * g_tu for k, v in tup.items()})
-        add(ce, cg)
+        add(ce, cg, layer_normal(stack, index))
         diffuse_up.add_interface(ops, n12)
         cti, sx, sy, g1, n_above = ctt, sx / n12, sy / n12, g1_new, p["ior"]
         if "thickness" in p:
             ce, cg = _medium(ops, p, cti, n)
-            add(ce, cg)
+            add(ce, cg, layer_normal(stack, index))
             diffuse_up.add_medium(ops, p)
 
     ops.set_scope("base")
@@ -275,7 +275,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
             reach = reach + E.td[(fam, P)]
     if not stack.base.kind.interface:  # a Lambertian base (``adding_doubling``)
         albedo = stack.base.kind.response(ops, base, cti, 0.0, n_above).albedo
-        lobes.append(Lobe(diffuse_up.base_energy(ops, reach, albedo), 0.0, 0.0, 0.0, "diffuse"))
+        lobes.append(Lobe(diffuse_up.base_energy(ops, reach, albedo), 0.0, 0.0, 0.0, "diffuse", normal="base"))
         ops.set_scope("lobes")
         return lobes
 
@@ -285,18 +285,18 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
     if resp.transmittance is None:
         ce = Component(_diag(resp.reflectance, n), {}, {}, {})
         cg = Component(_diag(resp.reflectance * g_r, n), {}, {}, {})
-        add(ce, cg)
+        add(ce, cg, "base")
         if resp.scattered is not None:
             # what the microsurface scatters more than once leaves broad (``adding_doubling``)
             lobes.append(Lobe(diffuse_up.emitted(ops, reach * resp.scattered, resp.reflectance + resp.scattered,
                                             SCATTERED_POINTS),
-                              0.0, 0.0, 0.0, "diffuse"))
+                              0.0, 0.0, 0.0, "diffuse", normal="base"))
     else:
         R, T, _, _, g_r, g1_new = _interface(ops, cti, alpha, resp.eta, g1, base, n_above)
         g_t = ops.select(g1 > 1e-6, g1_new / ops.max(g1, 1e-6), 0.0)
         ce = Component(_diag(R, n), _diag(T, n), {}, {})
         cg = Component(_diag(R * g_r, n), _diag(T * g_t, n), {}, {})
-        add(ce, cg)
+        add(ce, cg, "base")
         # Eq. 25: everything crossing the base, every family, leaves as one transmission lobe
         e = E.td[(P, P)]
         gt = G.td[(P, P)]
@@ -306,7 +306,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
         ea = e.average()
         g = ops.select(ea > 1e-12, gt.average() / ops.max(ea, 1e-12), 1.0)
         a = hg.alpha_of_g(ops, g)
-        lobes.append(Lobe(e, a, a, 0.0, "transmission", base["ior"]))
+        lobes.append(Lobe(e, a, a, 0.0, "transmission", base["ior"], normal="base"))
     ops.set_scope("lobes")
     return lobes
 

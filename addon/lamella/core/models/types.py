@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..param_id import slots
+from ..param_id import layer_prefix, slots
 from .rgb import RGB
 
 COS_FLOOR = 1e-6  # smallest cosine used in a Beer-Lambert path length (keeps d / cos finite)
@@ -22,7 +22,10 @@ class Lobe:
     angle of those axes from the shading tangent, its kind (a name of ``lamella.core.lobe_kinds``)
     and, for a transmission lobe, the index of the medium it enters relative to vacuum above.
     ``cover`` is the fraction of the surface the lobe is on (a part of a stack with partly
-    covering coats, ``models.coverage``): the material reflects ``cover * weight``."""
+    covering coats, ``models.coverage``): the material reflects ``cover * weight``. ``normal``
+    names the layer whose normal the lobe is about (``coat0``, ``base``: the interface it leaves,
+    or the layer whose interior scatters it; ``param_id.layer_prefix``), where a material gives
+    that layer a normal of its own; None: the shading normal."""
 
     weight: RGB
     alpha_x: object
@@ -31,6 +34,13 @@ class Lobe:
     kind: str = "reflection"
     eta: object = 1.0
     cover: object = 1.0
+    normal: str | None = None
+
+
+def layer_normal(stack, index: int) -> str:
+    """The ``Lobe.normal`` of coat ``index`` of ``stack`` (its index in the whole stack, for a part
+    of one: ``Stack.layer_index``), or of the base (``index`` past the coats)."""
+    return layer_prefix(stack.layer_index(index) if index < len(stack.coats) else None)
 
 
 def layer_params(ops, stack):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 from ... import lobe_kinds
 from ...models import resolve, run_model
 from ...models.coverage import cover_params, partial_coats
+from ...param_id import split_normals
 from ...models.types import layer_params
 from ...stack import Stack
 from .trace import Tracer
@@ -34,13 +35,20 @@ class Closure:
     args: dict
     label: str
     cover: object = 1.0
+    normal: str | None = None  # the layer whose normal the lobe is about (``Lobe.normal``)
+
+    def framed(self, normals) -> str | None:
+        """The layer whose own normal the closure takes, where the material gives that layer one
+        (``normals``: the layers whose Normal input is linked), else None (the shading normal)."""
+        return self.normal if self.normal in normals else None
 
     def covered(self, t) -> "Closure":
         """This closure with its weight times its ``cover`` (made in tracer ``t``)."""
         if isinstance(self.cover, float) and self.cover == 1.0:
             return self
         lobe = replace(self.lobe, weight=self.lobe.weight * self.cover, cover=1.0)
-        return Closure(lobe, self.kind, tuple(w * self.cover for w in self.weight), self.args, self.label, 1.0)
+        return Closure(lobe, self.kind, tuple(w * self.cover for w in self.weight), self.args, self.label, 1.0,
+                       self.normal)
 
 
 @dataclass
@@ -86,7 +94,7 @@ def trace_closures(stack, model: str = "auto", live=()) -> TracedClosures:
     linked coverage makes its coat partly covering). A stack of a structure traced before reuses
     that graph with its own values as the parameters' defaults (``structure_of``)."""
     stack = Stack.coerce(stack)
-    partial = partial_coats(stack, live)
+    partial = partial_coats(stack, split_normals(live)[0])
     key = structure_of(stack, model, partial)
     hit = _TRACES.get(key)
     if hit is not None:
@@ -112,6 +120,6 @@ def _trace(stack, model: str, partial=()) -> TracedClosures:
         scale = kind.scale(t, lobe, wi)
         label = f"lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
         closures.append(Closure(lobe, kind, tuple(c * scale for c in lobe.weight), kind.args(t, lobe, wi), label,
-                                lobe.cover))
+                                lobe.cover, lobe.normal))
     covered = [c.covered(t) for c in closures]
     return TracedClosures(stack, v.name, t, wi, closures, tuple(partial), covered)

@@ -45,6 +45,7 @@ from ..numpy_ops import NumpyOps
 from . import lobe_budget
 from .closures import Closure, trace_closures
 from .live_axes import axis_nodes, axis_of, lookup_axes
+from ...param_id import normal_socket, split_normals
 from .sockets import params_of, socket_names, sockets
 from .trace import Expr, Tracer
 
@@ -162,12 +163,15 @@ class Staged:
     live_axes: int = 0  # the most linked parameters a tabulated value may depend on (``stage``)
     traced_params: tuple = ()  # the live parameters some traced arithmetic of the model reads
     ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
+    normals: tuple = ()  # the layers whose own normal (an input) their closures take (``Closure.normal``)
 
     @property
     def live_sockets(self) -> tuple:
-        """The sockets (``sockets.sockets``: panel units) whose parameters are live, sorted."""
+        """The sockets (``sockets.sockets``: panel units) whose parameters are live, and the layers'
+        own normals, sorted."""
         live = set(self.live)
-        return tuple(sk.name for sk in sockets({k: self.ids[k] for k in self.interface}) if live & set(sk.params))
+        return tuple(sorted([sk.name for sk in sockets({k: self.ids[k] for k in self.interface}) if live & set(sk.params)]
+                            + [normal_socket(n) for n in self.normals]))
 
     @property
     def columns(self) -> int:
@@ -181,6 +185,7 @@ class Staged:
         outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
         parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface),
+                 ",".join(self.normals), ",".join(str(c.normal) for c in self.closures),
                  *(f"{tab.params}{tab.data.shape}" for tab in self.axis_tables)]
         for k, e in enumerate(t.live_nodes(outs)):
             names[id(e)] = k
@@ -261,6 +266,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     if traced is None or traced.stack != stack:
         traced = trace_closures(stack, model, live)  # ``traced``: the caller's trace of this stack and model
     t = traced.tracer
+    asked = tuple(live)
+    live, normals = split_normals(live)  # the layers given a normal of their own: their closures' frames
     defaults = {k: float(t.defaults[k]) for k in t.params}
     unknown = sorted(n for n in live if n not in defaults and n not in socket_names(t.ids))
     if unknown:
@@ -314,15 +321,15 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         turn = on_grid is not None
         if on_grid is None:
             if axes:  # tables over (view, parameters) are made on one azimuth node
-                return stage(stack, model, live, budget, None, traced, 0, partition)
+                return stage(stack, model, asked, budget, None, traced, 0, partition)
             grid = ViewGrid(N_MU, N_PHI)
             on_grid = grid_values(t, grid.directions().reshape(-1, 3), [*baked, *boundary])
     dirs = grid.directions().reshape(-1, 3)
 
     # every lobe on the grid (a live one at its sockets' values), merged to the budget: baked lobes
     # with baked ones, live lobes with live ones
-    def group(c):
-        return id(c.cover) if live_expr(c.cover) else None
+    def group(c):  # lobes merge only with lobes of their part and of their layer's own normal
+        return (id(c.cover) if live_expr(c.cover) else None, c.framed(normals))
 
     samples = [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), group=group(c)) for c in fixed]
     samples += [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), live=True, group=group(c)) for c in moving]
@@ -410,12 +417,16 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                                     {k: rebuild(x) for k, x in c.args.items()}, c.label))
         else:
             closures.append(_merged_live_closure(t2, wi2, members, rebuild, grp.lobe.label))
-    closures = [_covered(c, rebuild(source[grp.members[0].index].cover))
-                for c, grp in zip(closures, baked_groups + live_groups)]
+    framed = []
+    for c, grp in zip(closures, baked_groups + live_groups):
+        src = source[grp.members[0].index]
+        c = _covered(c, rebuild(src.cover))
+        framed.append(replace(c, normal=src.framed(normals)))
+    closures = framed
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
-                tuple(sorted(traced_params)), dict(t.ids))
+                tuple(sorted(traced_params)), dict(t.ids), normals)
     return st
 
 

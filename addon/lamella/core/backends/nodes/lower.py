@@ -27,6 +27,7 @@ import numpy as np
 
 from ... import luts
 from ..ir.closures import trace_closures
+from ...param_id import normal_socket, split_normals
 from ..ir.live_axes import MAX_AXES
 from ..ir.staging import stage
 from ..ir.trace import Expr, Tracer
@@ -382,20 +383,24 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
             if not _TOO_LARGE[key]:
                 return plan
         if _TOO_LARGE[key]:
-            st = stage(st.stack, st.model, st.live, budget, grid, live_axes=MAX_AXES)
-    return _plan(stack, model, st, image)
+            st = stage(st.stack, st.model, (*st.live, *(normal_socket(n) for n in st.normals)), budget, grid,
+                       live_axes=MAX_AXES)
+    return _plan(stack, model, st, image, live)
 
 
 _TOO_LARGE: dict = {}  # structure key of a staged shader -> whether its traced part is too large for SVM
 
 
-def _plan(stack, model: str, st, image: str) -> Plan:
-    """The plan of the staged shader ``st``, or of the whole model of ``stack`` (``st`` None)."""
+def _plan(stack, model: str, st, image: str, live=()) -> Plan:
+    """The plan of the staged shader ``st``, or of the whole model of ``stack`` (``st`` None, every
+    parameter an input; the layers' normals in ``live`` inputs too)."""
     if st is not None:
         stack, model_name, params, ids = st.stack, st.model, dict(st.defaults), dict(st.ids)
         t, closures, wi, frame, table = st.tracer, st.closures, st.wi, st.frame, st.table
+        normals = st.normals
     else:
-        traced = trace_closures(stack, model)
+        normals = split_normals(live)[1]
+        traced = trace_closures(stack, model, live)
         stack, model_name = traced.stack, traced.model
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         ids = dict(traced.tracer.ids)
@@ -412,11 +417,11 @@ def _plan(stack, model: str, st, image: str) -> Plan:
         bsdfs.append(Bsdf(c.kind.name, b.bl_idname, dict(b.props), tuple(low.ref(c) for c in color),
                           {s: low.ref(x) for s, x in b.floats.items()},
                           {s: (None if vec is None else tuple(low.ref(x) for x in vec)) for s, vec in b.vectors.items()},
-                          c.label))
+                          c.label, c.framed(normals)))
     sections = {"setup": "incident direction", "lobes": "lobes", "closures": "closure weights",
                 "base": f"base: {stack.base.type}", "table": "the material table", "live": "linked parameters"}
     for i, c in enumerate(stack.coats):
         sections[f"coat{i}"] = f"coat {i}" + (" (medium)" if c.has_scattering else "")
     images = {image: low.material_pixels()} if any(n.props.get("image") == image for n in low.nodes) else {}
     return Plan(low.nodes, low.leaves, params, bsdfs, sections, model_name, stack.to_json(indent=None),
-                (t, exprs, [low.ref(e) for e in exprs]), frame, images, st, ids)
+                (t, exprs, [low.ref(e) for e in exprs]), frame, images, st, ids, normals)

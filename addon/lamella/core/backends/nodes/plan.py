@@ -51,6 +51,7 @@ class Bsdf:
     floats: dict
     vectors: dict
     label: str
+    frame: str | None = None  # the layer whose own normal its vectors are about (None: the shading frame)
 
 
 @dataclass
@@ -71,6 +72,7 @@ class Plan:
     images: dict = field(default_factory=dict)  # material tables: image name -> pixels (rows bottom first)
     staged: object = field(default=None, repr=False)
     ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
+    normals: tuple = ()  # the layers given a normal of their own: a vector input each (``param_id.normal_socket``)
 
     def leaf(self, name: str) -> Out:
         return Out(-1 - self.leaves.index(name), "Value")

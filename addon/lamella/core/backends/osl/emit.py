@@ -28,6 +28,8 @@ import numpy as np
 
 from ... import luts
 from ..ir.closures import trace_closures
+from ...lobe_kinds.kind import FRAME_KEYS
+from ...param_id import normal_socket, split_normals
 from ..ir.sockets import by_param, sockets
 from ..ir.staging import stage
 from ..ir.trace import Expr, Tracer
@@ -357,6 +359,10 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     declared = [_socket_param(sk) for sk in sockets(traced.tracer.ids, all_params)
                 if declare == "all" or any(k in live_names for k in sk.params)]
     declared += [ShaderParam("Normal", "normal", "N"), ShaderParam("Tangent", "vector", "vector(0.0, 0.0, 0.0)")]
+    # the layers given a normal of their own (a bump on the coat, flakes on the base): an input each,
+    # a frame each, which the closures of that layer are about (``Closure.normal``)
+    normals = st.normals if st is not None else split_normals(live)[1]
+    declared += [ShaderParam(normal_socket(n), "normal", "N") for n in normals]
     if uses_tables:
         declared.append(ShaderParam("lut_dir", "string", _string_literal(lut_path)))
     if engine_switch:
@@ -399,11 +405,22 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
                  + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
                  f"    float MT[{table.size}] = {{{values}}};"]
+    for n in normals:  # each layer's frame: its normal (the shading normal where the input is zero), the
+        # shading tangent made orthogonal to it (the bitangent where the tangent lies along it)
+        sock = normal_socket(n)
+        body += [f"    // the frame of {n}'s own normal",
+                 f"    vector N_{n} = length({sock}) > 1e-8 ? normalize({sock}) : Normal;",
+                 f"    vector T_{n} = Tn - dot(Tn, N_{n}) * N_{n};",
+                 f"    if (length(T_{n}) < 1e-6) T_{n} = Bn - dot(Bn, N_{n}) * N_{n};",
+                 f"    T_{n} = normalize(T_{n});",
+                 f"    vector B_{n} = cross(N_{n}, T_{n});"]
     body += [*_blocked(p.lines), "    BSDF = 0;"]
     called = []
     for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
-        closure = c.kind.osl({name: p.ref(x) for name, x in c.args.items()})
+        frame = c.framed(normals)
+        where = {} if frame is None else dict(zip(FRAME_KEYS, (f"N_{frame}", f"T_{frame}", f"B_{frame}")))
+        closure = c.kind.osl({**{name: p.ref(x) for name, x in c.args.items()}, **where})
         called.append(ShaderClosure(c.label, c.kind.name, closure.split("(", 1)[0].strip()))
         body += [
             f"    // {c.label}",
