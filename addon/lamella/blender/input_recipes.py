@@ -1,6 +1,6 @@
 """Procedural inputs a preset links into a material's Lamella node: node set-ups an artist would
 build by hand (a wear mask, dust on the faces that look up, an oil film's swirling thickness, a
-soap film draining), named so that a preset can ask for
+soap film draining, a clear coat's orange peel, metal flakes), named so that a preset can ask for
 them (``core.presets.Preset.inputs``: socket name -> recipe name).
 
 A recipe builds its nodes into any shader node tree (a material's, or the node-group library's
@@ -108,10 +108,53 @@ def _drainage(tree, add):
     return ramp, ramp.outputs["Result"]
 
 
+def _orange_peel(tree, add):
+    """The orange peel of a sprayed clear coat: a fine noise bump (object space) on its normal."""
+    coords = add("ShaderNodeTexCoord")
+    noise = add("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 40.0
+    noise.inputs["Detail"].default_value = 2.0
+    bump = add("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = 0.08
+    tree.links.new(coords.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    return bump, bump.outputs["Normal"]
+
+
+def _flakes(tree, add):
+    """Metal flakes in a paint: Voronoi cells in object space, each tilting the normal its own way
+    (the cell's random colour about 0.5, by up to about 25 degrees)."""
+    coords = add("ShaderNodeTexCoord")
+    cells = add("ShaderNodeTexVoronoi")
+    cells.inputs["Scale"].default_value = 250.0
+    centred = add("ShaderNodeVectorMath")
+    centred.operation = "SUBTRACT"
+    centred.inputs[1].default_value = (0.5, 0.5, 0.5)
+    tilt = add("ShaderNodeVectorMath")
+    tilt.operation = "SCALE"
+    tilt.inputs["Scale"].default_value = 0.9
+    geometry = add("ShaderNodeNewGeometry")
+    tilted = add("ShaderNodeVectorMath")
+    tilted.operation = "ADD"
+    unit = add("ShaderNodeVectorMath")
+    unit.operation = "NORMALIZE"
+    tree.links.new(coords.outputs["Object"], cells.inputs["Vector"])
+    tree.links.new(cells.outputs["Color"], centred.inputs[0])
+    tree.links.new(centred.outputs["Vector"], tilt.inputs[0])
+    tree.links.new(geometry.outputs["Normal"], tilted.inputs[0])
+    tree.links.new(tilt.outputs["Vector"], tilted.inputs[1])
+    tree.links.new(tilted.outputs["Vector"], unit.inputs[0])
+    return unit, unit.outputs["Vector"]
+
+
 WORN = register(InputRecipe("worn", "Wear mask", "patches where a coat is rubbed off (a noise in object space)", _worn))
 UPWARD = register(InputRecipe("upward", "Faces looking up", "where a face looks up (the world normal's z)", _upward))
 OIL_SWIRL = register(InputRecipe("oil_swirl", "Oil film swirl", "an oil film's thickness swirling (150-650 nm)",
                                  _oil_swirl))
+ORANGE_PEEL = register(InputRecipe("orange_peel", "Orange peel", "a sprayed clear coat's orange peel (a fine bump)",
+                                   _orange_peel))
+FLAKES = register(InputRecipe("flakes", "Metal flakes", "metal flakes: Voronoi cells each tilting the normal",
+                              _flakes))
 DRAINAGE = register(InputRecipe("drainage", "Soap film drainage", "a soap film thin at the top, thick at the bottom "
                                 "(150-900 nm)", _drainage))
 

@@ -10,6 +10,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
+from .param_id import NORMAL
 from .stack import Stack, StackError
 
 DATA_DIR = Path(__file__).resolve().parent.parent / "data"
@@ -51,13 +52,14 @@ def check_inputs(preset: Preset) -> None:
     stack = preset.load()
     for socket, recipe in preset.inputs:
         layer, _, field = socket.partition("_")
+        fields = {NORMAL}  # every layer has a Normal input of its own
         if layer == "base":
             kind = stack.base.kind
         elif layer.startswith("coat") and layer[4:].isdigit() and int(layer[4:]) < len(stack.coats):
             kind = stack.coats[int(layer[4:])].kind
         else:
             raise StackError("stack", None, f"preset {preset.id!r}: input {socket!r} names no layer of its stack")
-        if field not in {f.name for f in kind.fields}:
+        if field not in fields | {f.name for f in kind.fields}:
             raise StackError("stack", None, f"preset {preset.id!r}: input {socket!r}: a {kind.type} has no field "
                                             f"{field!r}")
         if not isinstance(recipe, str) or not recipe:

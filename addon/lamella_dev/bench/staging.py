@@ -180,11 +180,13 @@ def cost_rows(repeats: int = REPEATS, progress=print, variants=COST_VARIANTS) ->
 # closures of the part that is absent weigh 0 and the renderer skips them (``models.coverage``).
 COVER_COAT = {"ior": 1.5, "roughness": 0.01, "thickness": 0.4, "sigma_a": [0.1, 0.5, 1.5]}
 COVER_BASE = {"type": "diffuse", "albedo": [0.5, 0.3, 0.15]}
+COVER_FILM = {**COVER_COAT, "film_thickness": 300.0, "film_ior": 1.45}
 COVER_VARIANTS = (("the whole stack, no mask", [COVER_COAT], None),
                   ("mask linked, 1 everywhere", [COVER_COAT], 1.0),
                   ("the bare base", [], None),
                   ("mask linked, 0 everywhere", [COVER_COAT], 0.0),
-                  ("mask linked, a noise texture", [COVER_COAT], "noise"))
+                  ("mask linked, a noise texture", [COVER_COAT], "noise"),
+                  ("mask linked, a noise texture; a 300 nm film on the coat", [COVER_FILM], "noise"))
 COVER_ENGINES = (("OSL", "lamella-osl", "principled"), ("SVM", "lamella-svm", "principled-svm"),
                  ("EEVEE", "lamella-eevee", "eevee-principled"))
 
@@ -213,6 +215,9 @@ def _timed_cover_render(layers, mask, engine):
         else:
             principled = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
             nt.links.new(src, principled.inputs["Coat Weight"])
+            if layers and layers[0].get("film_thickness", 0.0) > 0.0:  # Principled's film is on its base
+                principled.inputs["Thin Film Thickness"].default_value = layers[0]["film_thickness"]
+                principled.inputs["Thin Film IOR"].default_value = layers[0]["film_ior"]
     _, first = render_scene(sc)  # the render handler compiles the linked mask first
     _, second = render_scene(sc) if "eevee" in engine else (None, first)
     return first, second
@@ -225,6 +230,8 @@ def cover_rows(repeats: int = REPEATS, progress=print) -> list[dict]:
     for system, engine, principled in COVER_ENGINES:
         variants = [(label, layers, mask, engine) for label, layers, mask in COVER_VARIANTS]
         variants.append(("Principled, the noise in its Coat Weight", [COVER_COAT], "noise", principled))
+        variants.append(("Principled, the noise in its Coat Weight and a 300 nm film", [COVER_FILM], "noise",
+                         principled))
         frames = {v[0]: [] for v in variants}
         for _ in range(repeats):
             for label, layers, mask, eng in variants:
@@ -290,11 +297,14 @@ def format_markdown(data) -> str:
                   "A tinted clear coat over a diffuse base (the Lamella node), `sphere-env`, "
                   f"{RES} px, {SPP} spp, median frame of {REPEATS} interleaved renders, with a node linked into the coat's",
                   "coverage: a mask of 1 everywhere against the whole stack, a mask of 0 against the bare base, and a",
-                  "noise texture against the Principled BSDF with the same noise in its Coat Weight.", "",
+                  "noise texture against the Principled BSDF with the same noise in its Coat Weight (with a film: a 300 nm "
+                  "film on the coat against Principled's Thin Film on its base, the closest it has).", "",
                   "| shading | variant | frame s | ratio | against |", "|---|---|---:|---:|---|"]
         against = {"mask linked, 1 everywhere": "the whole stack, no mask",
                    "mask linked, 0 everywhere": "the bare base",
-                   "mask linked, a noise texture": "Principled, the noise in its Coat Weight"}
+                   "mask linked, a noise texture": "Principled, the noise in its Coat Weight",
+                   "mask linked, a noise texture; a 300 nm film on the coat":
+                       "Principled, the noise in its Coat Weight and a 300 nm film"}
         for r in data["coverage"]:
             sec = r["seconds"]
             for label, s in sec.items():
