@@ -19,9 +19,11 @@ channel c is
 
     R_c = C_0 + 2 (R_s - T_121) sum_{m=1..3} Re(rho^m S_c(m OPD)),
 
-for s and p separately, then averaged. S_c is the Gaussian fit of the CIE 1931 XYZ sensitivities of
-Belcour and Barla's supplemental code (three lobes and a second lobe for x), mapped to linear
-Rec.709 and normalised to S_c(0) = 1.
+for s and p separately, then averaged. S_c is the Fourier transform, over the wavenumber, of
+channel c's colour matching function, as the Gaussian lobes of Belcour and Barla's supplemental
+code (the transforms of Gaussians over the wavenumber), three per CIE 1931 XYZ function fitted by
+least squares to the exact transform (``lamella_dev.thin_film_fit``), mapped to linear Rec.709 and
+normalised to S_c(0) = 1.
 
 Conventions, matched to Blender's Cycles (its Principled BSDF thin film, in
 intern/cycles/kernel/closure/bsdf_util.h: ``fresnel_iridescence``,
@@ -33,9 +35,10 @@ our colours compare with Principled's:
 - RGB: XYZ through Cycles' XYZ (D65) -> Rec.709 matrix (``XYZ_TO_REC709``), then each RGB channel
   divided by its value at OPD = 0 (Cycles normalises its table's DC term to 1), so a spectrally
   flat reflectance R gives (R, R, R) and light of equal energy per wavelength is white. (Cycles
-  tabulates the Fourier transform of the measured CMFs; we evaluate the paper's analytic fit, which
-  traces to a few exp/cos/sin. Blender 4.2 used this fit too, but adapted the white by scaling XYZ
-  by D65's white before the matrix.)
+  tabulates the Fourier transform of the measured CMFs; we evaluate an analytic fit of it, which
+  traces to an exp, a cos and, for a conductor, a sin per lobe: nine lobes, within 0.017 of the
+  exact transform, where the paper's four, which Blender 4.2 used, are within 0.16. Blender 4.2
+  also adapted the white by scaling XYZ by D65's white before the matrix.)
 - the film's top interface reflecting totally (a film of lower index than the medium above, past
   the critical angle): R = 1, as Cycles; so is the bottom interface of a dielectric reflecting
   totally (exact: with |r_23| = 1 the Airy sum is 1). The light a film thinner than a wavelength
@@ -59,11 +62,13 @@ rounding (r_23, or r_12, is exactly 0 and the series collapses to C_0); R is in 
 at every cosine in [0, 1], in float32 as in float64.
 
 Accuracy against the exact spectral colour (``lamella_dev.thin_film_spectral``; the table in
-tests/unit/test_thin_film.py, 0-85 degrees, 0-1000 nm, film index 1.33-2.4): mean |dRGB| 0.002 to
-0.02 and mean CIEDE2000 1 to 2.7 for dielectric substrates. Away from grazing incidence the error
-is the Gaussian fit (up to 0.16 of S_c(0) in red at an OPD of a few microns, where Cycles now reads
-a table of the exact transform); from 75 degrees on, where r_123 grows, the truncation after
-m = 3 (up to 0.1 at 85 degrees). A conductor given in RGB adds the ambiguity of its spectrum.
+tests/unit/test_thin_film.py, 0-85 degrees, 0-1000 nm, film index 1.33-2.4): mean |dRGB| 0.0001 to
+0.0026 and mean CIEDE2000 0.03 to 0.27 for dielectric substrates (with the paper's four lobes
+0.0015 to 0.019 and 1 to 2.6). What remains is about equally the fit of the sensitivities (up to
+0.017 of S_c(0)) and the truncation after m = 3, which dominates from 60 degrees on, where r_123
+grows (up to 0.1 at 85 degrees). A conductor given in RGB adds the ambiguity of its spectrum (mean
+|dRGB| 0.03 for gold against a spectrum interpolated through its RGB index, 0.001 to 0.0024 against
+a constant index per channel).
 """
 from __future__ import annotations
 
@@ -81,13 +86,24 @@ XYZ_TO_REC709 = ((3.2404542, -1.5371385, -0.4985314),
                  (-0.9692660, 1.8760108, 0.0415560),
                  (0.0556434, -0.2040259, 1.0572252))
 
-# Belcour and Barla 2017, supplemental code: the XYZ sensitivities' Fourier transform fitted by
-# Gaussians, val * sqrt(2 pi var) * exp(-var phi^2) * cos(pos phi + shift) at phi = 2 pi OPD (OPD in
-# metres, pos in 1/m, var in m^2); x has a second lobe. (XYZ axis, val, pos, var) per lobe.
-SENSITIVITY_LOBES = ((0, 5.4856e-13, 1.6810e+06, 4.3278e+09),
-                     (1, 4.4201e-13, 1.7953e+06, 9.3046e+09),
-                     (2, 5.2481e-13, 2.2084e+06, 6.6121e+09),
-                     (0, 9.7470e-14, 2.2399e+06, 4.5282e+09))
+# The XYZ sensitivities' Fourier transform as Gaussian lobes, the form of Belcour and Barla 2017's
+# supplemental code: val * sqrt(2 pi var) * exp(-var phi^2) * exp(i pos phi) at phi = 2 pi OPD (OPD
+# in metres, pos in 1/m, var in m^2), each lobe the transform of a Gaussian over the wavenumber.
+# (XYZ axis, val, pos, var) per lobe, three per XYZ function: a least-squares fit of the RGB
+# sensitivities this module uses (after XYZ_TO_REC709 and the normalisation to S_c(0) = 1, real
+# and imaginary parts) to the exact transform of the 1 nm CIE 1931 2-degree table, OPD 0-90 um,
+# made by ``PYTHONPATH=addon python -m lamella_dev.thin_film_fit --lobes 3`` (which prints these
+# digits). Max |S_c - exact| 0.017 (R), 0.014 (G), 0.008 (B), against the paper's four lobes' 0.16,
+# 0.14, 0.07; the paper's constants are ``lamella_dev.thin_film_fit.PAPER_LOBES``.
+SENSITIVITY_LOBES = ((0, 4.86190e-13, 1.65304e+06, 2.93250e+09),
+                     (0, 1.56384e-13, 1.79220e+06, 2.79993e+09),
+                     (0, 9.79291e-14, 2.23484e+06, 5.12136e+09),
+                     (1, 2.66598e-13, 1.69939e+06, 4.14297e+09),
+                     (1, 3.40740e-13, 1.84938e+06, 4.85649e+09),
+                     (1, 2.33734e-14, 2.07282e+06, 5.46185e+09),
+                     (2, 2.46084e-13, 2.17584e+06, 2.19402e+09),
+                     (2, 2.13118e-13, 2.18165e+06, 9.26933e+09),
+                     (2, 2.29463e-13, 2.29822e+06, 1.73221e+09))
 
 
 def _lobes_nm():
