@@ -188,10 +188,12 @@ def _script_node(bpy, nt, text, params: dict):
     return node
 
 
-def _interface_material(bpy, text, name: str, surface: str, params: dict, volume: ShellVolume | None = None):
+def _interface_material(bpy, text, name: str, surface: str, params: dict, volume: ShellVolume | None = None,
+                        normal=None):
     """A material for one interface sphere: ``surface`` is "script" (the OSL interface with
     ``params``), "transparent" (an invisible, index-matched boundary) or "diffuse" (``params``:
-    albedo); ``volume`` the homogeneous medium this sphere adds."""
+    albedo); ``volume`` the homogeneous medium this sphere adds; ``normal(node_tree)`` builds this
+    interface's own shading normal (a bump) and returns its socket."""
     mat = bpy.data.materials.new(name)
     mat.cycles.volume_sampling = "DISTANCE"
     nt = mat.node_tree
@@ -211,6 +213,8 @@ def _interface_material(bpy, text, name: str, surface: str, params: dict, volume
         nt.links.new(node.outputs["BSDF"], out.inputs["Surface"])
     else:
         raise ValueError(f"unknown interface surface {surface!r}")
+    if normal is not None and surface != "transparent":
+        nt.links.new(normal(nt), node.inputs["Normal"])
     if volume is not None and not volume.empty:
         # sigma_a and sigma_s per unit length, unscaled (mesh volumes ignore the object's scale)
         vol = nt.nodes.new("ShaderNodeVolumeCoefficients")
@@ -235,10 +239,22 @@ def _dielectric(eta: float, roughness, rotation: float, energy_conserving: int =
 INTERFACES = ("single", "multiple")  # as lamella_dev.reference.INTERFACES
 
 
-def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS, interfaces: str = "single"):
+def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS, interfaces: str = "single",
+                    normals=None):
     """Turn the canonical scene's sphere into the nested-interface reference of ``stack``. Its rough
     interfaces scatter once (``interfaces="single"``) or keep the energy their microsurface
-    scatters again (``"multiple"``: Cycles' multiscatter GGX, see the interface shader)."""
+    scatters again (``"multiple"``: Cycles' multiscatter GGX, see the interface shader).
+    ``normals``: a shading normal of its own for some interfaces (``{"coat0": build, "base":
+    build}``, ``build(node_tree)`` returning a normal socket, e.g. a bump): each shell is then a
+    true layer with its own normal, the ground truth of a layer's Normal input (the shells are thin
+    against the bump's scale, so the bump is local to its interface)."""
+    normals = normals or {}
+    for where, layer in [*((f"coat {i}", c) for i, c in enumerate(stack.coats)), ("base", stack.base)]:
+        if getattr(layer, "film_thickness", 0.0) > 0.0:
+            # measured in Blender 5.2: the OSL dielectric_bsdf with thinfilm_* keywords reflects a grey
+            # 0.78 of the bare Fresnel factor at any thickness, no interference colour
+            raise ValueError(f"{where}, field 'film_thickness': the nested spheres have no thin film (Cycles' OSL "
+                             "MaterialX closures do not render one); the stochastic reference has it")
     import bpy
 
     if interfaces not in INTERFACES:
@@ -272,17 +288,19 @@ def build_reference(sc, sphere, stack: Stack, thickness: float = SHELL_THICKNESS
         if i < len(stack.coats):
             coat = stack.coats[i]
             surface, params = _dielectric(coat.ior / n_above, coat.roughness, coat.rotation, ec)
-            mat = _interface_material(bpy, text, f"interface_{i}", surface, params, volumes[i])
+            mat = _interface_material(bpy, text, f"interface_{i}", surface, params, volumes[i],
+                                      normals.get(f"coat{i}"))
             n_above = coat.ior
         elif base.type == "conductor":
             params = {"alpha_x": base.roughness[0], "alpha_y": base.roughness[1], "rotation": base.rotation,
                       "conductor": 1, "conductor_eta": tuple(e / n_above for e in base.eta),
                       "conductor_k": tuple(k / n_above for k in base.k), "energy_conserving": ec}
-            mat = _interface_material(bpy, text, "base", "script", params)
+            mat = _interface_material(bpy, text, "base", "script", params, normal=normals.get("base"))
         elif base.type == "diffuse":
-            mat = _interface_material(bpy, text, "base", "diffuse", {"albedo": tuple(base.albedo)})
+            mat = _interface_material(bpy, text, "base", "diffuse", {"albedo": tuple(base.albedo)},
+                                      normal=normals.get("base"))
         else:
             surface, params = _dielectric(base.ior / n_above, base.roughness, base.rotation, ec)
-            mat = _interface_material(bpy, text, "base", surface, params)
+            mat = _interface_material(bpy, text, "base", surface, params, normal=normals.get("base"))
         obj.data.materials.append(mat)
     return radii

@@ -43,6 +43,17 @@ def test_a_part_of_a_partly_covered_stack_names_its_layers_by_the_whole_stacks_i
     assert "coat1" in normals and normals.count("coat0") >= 1  # the part without coat 0 still names coat 1
 
 
+def test_a_stack_tilted_as_a_whole_tilts_every_reflected_lobe_alike():
+    """Every layer given the same normal: each reflected lobe is about it (the prism weights of a
+    lobe sum to 1), the whole response rotated."""
+    from lamella.core.layer_normals import coats_above, tilts
+
+    for layer in ("coat0", "coat1", "base"):
+        w = tilts(THREE, layer, coats_above(THREE, layer), "reflection")
+        assert sum(w.values()) == pytest.approx(1.0), (layer, w)
+    assert tilts(THREE, "base", coats_above(THREE, "base"), "diffuse") == {"base": 1.0}
+
+
 def test_z_normals_are_the_shading_normal_and_a_tilted_base_moves_its_lobe():
     wi = suite.incident(30.0)
     wo, _ = suite.wo_grid(wi)
@@ -59,19 +70,24 @@ def test_z_normals_are_the_shading_normal_and_a_tilted_base_moves_its_lobe():
 
 
 def test_a_linked_normal_gives_its_layers_closures_a_frame_in_every_backend():
+    """A bumped top coat tilts its own lobe by its tilt, and every lobe below by the prism it makes
+    (``layer_normals``: -(n - 1) of its tilt through a coat of index n); diffuse lobes keep theirs."""
     st = staging.stage(THREE, live=["coat0_normal"], budget="all")
     assert st.normals == ("coat0",) and "coat0_normal" in st.live_sockets
-    assert [c.normal for c in st.closures].count("coat0") >= 1 and None in [c.normal for c in st.closures]
+    frames = {c.normal: c.framed(st.normals) for c in st.closures if c.kind.name == "reflection"}
+    assert frames["coat0"] == (("coat0", 1.0),) and frames["coat1"] == (("coat0", -0.5),)
+    assert frames["base"] == (("coat0", -0.5),)
     assert st.structure_key() != staging.stage(THREE, budget="all").structure_key()
     src = osl_shader(THREE, live=("coat0_normal",)).source
-    assert "normal coat0_normal = N" in src and 'microfacet("ggx", N_coat0, T_coat0' in src
+    assert "normal coat0_normal = N" in src and 'microfacet("ggx", F0_N, F0_T' in src
+    assert "vector F0_N = normalize(Normal + 1.0 * (N_coat0 - dot(N_coat0, Normal) * Normal));" in src
     plan = emit_plan(THREE, live=("coat0_normal",))
-    assert plan.normals == ("coat0",) and {b.frame for b in plan.bsdfs} == {"coat0", None}
+    assert plan.normals == ("coat0",) and None in {b.frame for b in plan.bsdfs}
+    assert (("coat0", -0.5),) in {b.frame for b in plan.bsdfs}
 
 
 def test_lobes_of_different_frames_never_merge():
     merged = staging.stage(THREE, budget=1)
     framed = staging.stage(THREE, live=["coat0_normal", "base_normal"], budget=1)
     assert len(framed.closures) > len(merged.closures)
-    for c in framed.closures:
-        assert c.normal in ("coat0", "base", None)
+    assert len({c.framed(framed.normals) for c in framed.closures}) > 1

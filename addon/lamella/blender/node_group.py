@@ -382,12 +382,19 @@ def _shared_frame(nt, gin, view_frame: bool, location):
     return out[0], out[1], out[2], out[3], out[4:]
 
 
-def _layer_frame(g: _Vec, normal_in, frame):
-    """The frame of a layer's own normal (its input; the shading normal where the input is zero):
-    that normal, the shading tangent made orthogonal to it (the bitangent where the tangent lies
-    along it), their cross product; the view and ``wi`` of the shading ``frame``."""
+def _layer_frame(g: _Vec, key, inputs: dict, frame):
+    """The frame of a closure about the layers' own normals (``layer_normals.frame_key``: each
+    layer's normal input, the shading normal where it is zero, weighted by its tilt): the shading
+    normal plus the weighted tilts, normalised; the shading tangent made orthogonal to it (the
+    bitangent where the tangent lies along it); their cross product; the view and ``wi`` of the
+    shading ``frame``."""
     n, t, b, v, wi = frame
-    nl = g.vmath("NORMALIZE", g.pick(g.nonzero(normal_in), normal_in, n))
+    acc = n
+    for layer, w in key:
+        given = inputs[layer]
+        nl = g.vmath("NORMALIZE", g.pick(g.nonzero(given), given, n))
+        acc = g.vmath("ADD", acc, g.scale(g.project(nl, n), w))
+    nl = g.vmath("NORMALIZE", acc)
     tl = g.project(t, nl)
     tl = g.vmath("NORMALIZE", g.pick(g.nonzero(tl), tl, g.project(b, nl)))
     return nl, tl, g.vmath("CROSS_PRODUCT", nl, tl), v, wi
@@ -437,7 +444,8 @@ def build_group(plan: Plan, name: str, tree=None):
         material_table_image(image, pixels)
     frame = _shared_frame(nt, gin, plan.frame == "view", (-X_STEP, 400.0))
     wi = frame[4]
-    layer_frames = {n: _layer_frame(g, gin.outputs[normal_socket(n)], frame) for n in plan.normals}
+    layer_normals = {n: gin.outputs[normal_socket(n)] for n in plan.normals}
+    layer_frames = {b.frame: _layer_frame(g, b.frame, layer_normals, frame) for b in plan.bsdfs if b.frame}
     leaf_src = {}
     convert = by_param(plan.ids)
     colours = {}

@@ -16,6 +16,7 @@ from .backends.numpy_ops import NumpyOps
 from .models import MODELS as _REGISTRY
 from .models import UnsupportedStack, resolve, run_model
 from .models.types import Lobe
+from .layer_normals import frame_key, tilts
 from .stack import Stack
 
 MODELS = ("auto", *_REGISTRY)
@@ -88,8 +89,9 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True,
     ``normals``: layers with a normal of their own, ``{"coat0": n, "base": n}`` (unit vectors in the
     shading frame, (3,) or (N, 3)), as a material whose layers' Normal inputs are linked renders
     them: the model's energies are the stack's at ``wi`` about the shading normal, and each lobe
-    of such a layer (``Lobe.normal``) is the closure the shaders make about that normal (its
-    tangent the shading tangent made orthogonal to it), its cosine factor about it too."""
+    is the closure the shaders make about the normal its layer and the tilted layers above it
+    give it (``layer_normals``; its tangent the shading tangent made orthogonal to it), its cosine
+    factor about it too."""
     wo = _dirs(wo, dtype)
     wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
     ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
@@ -97,17 +99,24 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True,
         ls = [lobe for lobe in ls if not (lobe_kinds.kind(lobe.kind).rough and np.all(np.asarray(lobe.alpha_x) == 0.0)
                                           and np.all(np.asarray(lobe.alpha_y) == 0.0))]
     wo_vals = tuple(ops.input(n, wo[:, k]) for k, n in enumerate(("wo_x", "wo_y", "wo_z")))
-    normals = normals or {}
-    plain = [lobe for lobe in ls if lobe.normal not in normals]
-    f = lobe_kinds.eval_lobes_cos(ops, plain, wi_vals, wo_vals)
-    for lobe in ls:
-        if lobe.normal in normals:
-            frame = layer_frame(np.broadcast_to(_dirs(normals[lobe.normal], dtype), wo.shape))
+    normals = {k: np.broadcast_to(_dirs(n, dtype), wo.shape) for k, n in (normals or {}).items()}
+    stack = Stack.coerce(stack)
+    keys = [frame_key(tilts(stack, lobe.normal, lobe.above or (), lobe.kind), normals) for lobe in ls]
+    f = lobe_kinds.eval_lobes_cos(ops, [lobe for lobe, key in zip(ls, keys) if not key], wi_vals, wo_vals)
+    z = np.array([0.0, 0.0, 1.0])
+    for lobe, key in zip(ls, keys):
+        if key:
+            n = z + sum(w * (_unit(normals[layer]) - _unit(normals[layer])[:, 2:3] * z) for layer, w in key)
+            frame = layer_frame(n)
             k = lobe_kinds.kind(lobe.kind)
             a = k.args(ops, lobe, wi_vals)
             f = f + lobe.weight * (k.cos_of_args(ops, a, _in(frame, wi, ops), _in(frame, wo, ops))
                                    * k.scale_of_args(ops, a, wi_vals))
     return np.stack([_full(c, wo.shape[0], ops.dtype) for c in f], -1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def layer_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

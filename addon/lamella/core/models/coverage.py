@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import itertools
 
+from ..layer_normals import coats_above
 from ..layers.schema import StackError
 from ..param_id import layer_label, slots, socket_name
 from .types import Lobe, UnsupportedStack
@@ -73,7 +74,7 @@ def run(ops, stack, wi, model, resolve, partial=None) -> list[Lobe]:
     if partial is None:
         partial = partial_coats(stack)
     if not partial:
-        return resolve(model, stack).run(ops, stack, wi)
+        return _placed(stack, resolve(model, stack).run(ops, stack, wi))
     out = []
     for k, (w, part) in enumerate(parts(ops, stack, partial)):
         try:
@@ -84,8 +85,15 @@ def run(ops, stack, wi, model, resolve, partial=None) -> list[Lobe]:
             lobes = resolve("auto", part).run(ops, part, wi)
         for lobe in lobes:
             lobe.cover = w if isinstance(lobe.cover, float) and lobe.cover == 1.0 else lobe.cover * w
-        out += lobes
+        out += _placed(part, lobes)
     return out
+
+
+def _placed(stack, lobes):
+    """``lobes`` of ``stack`` (a part of one), each told the coats present above its layer."""
+    for lobe in lobes:
+        lobe.above = coats_above(stack, lobe.normal)
+    return lobes
 
 
 __all__ = ["FIELD", "MAX_PARTIAL", "partial_coats", "cover_params", "parts", "run"]

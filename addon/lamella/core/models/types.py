@@ -35,6 +35,7 @@ class Lobe:
     eta: object = 1.0
     cover: object = 1.0
     normal: str | None = None
+    above: tuple | None = None  # the coats present above its layer (``layer_normals.coats_above``)
 
 
 def layer_normal(stack, index: int) -> str:

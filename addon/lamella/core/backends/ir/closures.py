@@ -11,9 +11,10 @@ their own part).
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from ... import lobe_kinds
+from ...layer_normals import frame_key, tilts
 from ...models import resolve, run_model
 from ...models.coverage import cover_params, partial_coats
 from ...param_id import split_normals
@@ -35,12 +36,13 @@ class Closure:
     args: dict
     label: str
     cover: object = 1.0
-    normal: str | None = None  # the layer whose normal the lobe is about (``Lobe.normal``)
+    normal: str | None = None  # the layer the lobe leaves (``Lobe.normal``)
+    tilts: dict = field(default_factory=dict)  # layer -> weight of its normal's tilt (``layer_normals.tilts``)
 
-    def framed(self, normals) -> str | None:
-        """The layer whose own normal the closure takes, where the material gives that layer one
-        (``normals``: the layers whose Normal input is linked), else None (the shading normal)."""
-        return self.normal if self.normal in normals else None
+    def framed(self, normals) -> tuple | None:
+        """The frame the closure is about when the layers ``normals`` have normals of their own
+        (``layer_normals.frame_key``), or None: the shading frame."""
+        return frame_key(self.tilts, normals) or None
 
     def covered(self, t) -> "Closure":
         """This closure with its weight times its ``cover`` (made in tracer ``t``)."""
@@ -48,7 +50,7 @@ class Closure:
             return self
         lobe = replace(self.lobe, weight=self.lobe.weight * self.cover, cover=1.0)
         return Closure(lobe, self.kind, tuple(w * self.cover for w in self.weight), self.args, self.label, 1.0,
-                       self.normal)
+                       self.normal, self.tilts)
 
 
 @dataclass
@@ -120,6 +122,6 @@ def _trace(stack, model: str, partial=()) -> TracedClosures:
         scale = kind.scale(t, lobe, wi)
         label = f"lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
         closures.append(Closure(lobe, kind, tuple(c * scale for c in lobe.weight), kind.args(t, lobe, wi), label,
-                                lobe.cover, lobe.normal))
+                                lobe.cover, lobe.normal, tilts(stack, lobe.normal, lobe.above or (), lobe.kind)))
     covered = [c.covered(t) for c in closures]
     return TracedClosures(stack, v.name, t, wi, closures, tuple(partial), covered)

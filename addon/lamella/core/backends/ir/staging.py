@@ -185,7 +185,7 @@ class Staged:
         outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
         parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface),
-                 ",".join(self.normals), ",".join(str(c.normal) for c in self.closures),
+                 ",".join(self.normals), ",".join(str(c.framed(self.normals)) for c in self.closures),
                  *(f"{tab.params}{tab.data.shape}" for tab in self.axis_tables)]
         for k, e in enumerate(t.live_nodes(outs)):
             names[id(e)] = k
@@ -421,7 +421,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     for c, grp in zip(closures, baked_groups + live_groups):
         src = source[grp.members[0].index]
         c = _covered(c, rebuild(src.cover))
-        framed.append(replace(c, normal=src.framed(normals)))
+        framed.append(replace(c, normal=src.normal, tilts=src.tilts))
     closures = framed
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),

@@ -51,7 +51,7 @@ class Bsdf:
     floats: dict
     vectors: dict
     label: str
-    frame: str | None = None  # the layer whose own normal its vectors are about (None: the shading frame)
+    frame: tuple | None = None  # the layers' tilts its vectors' frame takes (``layer_normals.frame_key``; None: shading)
 
 
 @dataclass

@@ -405,21 +405,28 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
                  + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
                  f"    float MT[{table.size}] = {{{values}}};"]
-    for n in normals:  # each layer's frame: its normal (the shading normal where the input is zero), the
-        # shading tangent made orthogonal to it (the bitangent where the tangent lies along it)
+    for n in normals:  # each layer's own normal (the shading normal where its input is zero)
         sock = normal_socket(n)
-        body += [f"    // the frame of {n}'s own normal",
-                 f"    vector N_{n} = length({sock}) > 1e-8 ? normalize({sock}) : Normal;",
-                 f"    vector T_{n} = Tn - dot(Tn, N_{n}) * N_{n};",
-                 f"    if (length(T_{n}) < 1e-6) T_{n} = Bn - dot(Bn, N_{n}) * N_{n};",
-                 f"    T_{n} = normalize(T_{n});",
-                 f"    vector B_{n} = cross(N_{n}, T_{n});"]
+        body.append(f"    vector N_{n} = length({sock}) > 1e-8 ? normalize({sock}) : Normal;")
+    frames = {}  # a closure's frame (``layer_normals``): the shading normal tilted by the layers' tilts
+    for c in closures:
+        key = c.framed(normals)
+        if key is None or key in frames:
+            continue
+        f = frames[key] = f"F{len(frames)}"
+        tilt = " + ".join(f"{_literal(w)} * (N_{n} - dot(N_{n}, Normal) * Normal)" for n, w in key)
+        body += [f"    // frame {f}: " + ", ".join(f"{n} x {w:g}" for n, w in key),
+                 f"    vector {f}_N = normalize(Normal + {tilt});",
+                 f"    vector {f}_T = Tn - dot(Tn, {f}_N) * {f}_N;",
+                 f"    if (length({f}_T) < 1e-6) {f}_T = Bn - dot(Bn, {f}_N) * {f}_N;",
+                 f"    {f}_T = normalize({f}_T);",
+                 f"    vector {f}_B = cross({f}_N, {f}_T);"]
     body += [*_blocked(p.lines), "    BSDF = 0;"]
     called = []
     for c in closures:
         r, g, b = (p.ref(x) for x in c.weight)
-        frame = c.framed(normals)
-        where = {} if frame is None else dict(zip(FRAME_KEYS, (f"N_{frame}", f"T_{frame}", f"B_{frame}")))
+        key = c.framed(normals)
+        where = {} if key is None else dict(zip(FRAME_KEYS, (f"{frames[key]}_{a}" for a in "NTB")))
         closure = c.kind.osl({**{name: p.ref(x) for name, x in c.args.items()}, **where})
         called.append(ShaderClosure(c.label, c.kind.name, closure.split("(", 1)[0].strip()))
         body += [
