@@ -23,6 +23,11 @@ Its single-scattering part is the height-correlated Smith BSDF: G2 = 1 / (1 + La
 for reflection, and for transmission the Beta form G2 = B(1 + Lambda_i, 1 + Lambda_o) that
 uniform heights imply (``g2_transmission``), where pbrt-v4's single-scattering interfaces (this
 reference's ``interfaces="single"``) use 1 / (1 + Lambda_i + Lambda_o) for both.
+
+A thin film on the interface (``film_fresnel``, ``Film``: the exact Airy reflectance at one
+wavelength per packet) replaces the Fresnel factor on every facet, each from the side the walk
+meets it on; the reference's spectral walk (``reference``, "Thin films") gives each packet its
+wavelength.
 """
 from __future__ import annotations
 
@@ -57,6 +62,127 @@ def _fresnel_conductor(c, eta, k):
     t4 = t2 * s2
     rp = rs * (t3 - t4) / np.maximum(t3 + t4, 1e-300)
     return np.clip(0.5 * (rp + rs), 0.0, 1.0)
+
+
+def _abs2(z):
+    return (z * z.conj()).real
+
+
+def _airy(r12, x, y, cos_d, sin_d):
+    """|r|^2 of r = (r12 + z) / (1 + r12 z), z = (x + i y) e^{i delta}, for a real r12."""
+    z2 = x * x + y * y
+    rz = 2.0 * r12 * (x * cos_d - y * sin_d)
+    r2 = r12 * r12
+    return (r2 + z2 + rz) / (1.0 + r2 * z2 + rz)
+
+
+def _film_fresnel_evanescent(c, n_i, nn2, thickness_nm, nn3, lam_nm):
+    """``film_fresnel`` where the wave in the film is evanescent (q_2 imaginary: light tunnelling
+    through a film of lower index past its critical angle), in complex arithmetic, without
+    complex division: with r_12 = a / b and r_23 = u / v, |r|^2 = |a v + u b E|^2 / |b v + a u E|^2,
+    E = e^{i delta}."""
+    nn1 = n_i * n_i
+    s2 = nn1 * (1.0 - c * c)
+    q1 = n_i * c
+    q2 = np.sqrt((nn2 - s2) + 0j)
+    q3 = np.sqrt((nn3 - s2) + 0j)  # principal roots: Im >= 0 since Im(N^2) = 2 eta k >= 0
+    e = np.exp((1j * 4.0 * math.pi * thickness_nm) * q2 / lam_nm)
+    out = 0.0
+    for a, b, u, v in ((q1 - q2, q1 + q2, q2 - q3, q2 + q3),
+                       (nn2 * q1 - nn1 * q2, nn2 * q1 + nn1 * q2, nn3 * q2 - nn2 * q3, nn3 * q2 + nn2 * q3)):
+        ue = u * e
+        out = out + 0.5 * _abs2(a * v + ue * b) / _abs2(b * v + ue * a)
+    return out
+
+
+def film_fresnel(c, n_i, n_film, thickness_nm, n_t, lam_nm):
+    """Unpolarised reflectance of a thin film between two half-spaces, at one wavelength per
+    element: light arriving at cosine ``c`` from the medium of real index ``n_i`` onto a film of
+    index ``n_film`` and thickness ``thickness_nm`` over a medium of index ``n_t`` (real, or
+    complex eta + i k for a conductor), all absolute, wavelength ``lam_nm`` (nm); the arguments
+    broadcast together.
+
+    The exact Airy sum (Born and Wolf, *Principles of Optics*, Sections 1.5-1.6): with
+    q_j = N_j cos(theta_j) = sqrt(N_j^2 - n_i^2 sin^2(theta_i)) (Im >= 0),
+    r_s(a, b) = (q_a - q_b) / (q_a + q_b), r_p(a, b) = (N_b^2 q_a - N_a^2 q_b) / (N_b^2 q_a + N_a^2 q_b),
+    r = (r_12 + r_23 e^{i delta}) / (1 + r_12 r_23 e^{i delta}), delta = 4 pi d q_2 / lambda, and
+    R = (|r_s|^2 + |r_p|^2) / 2: total internal reflection at either interface, the light a film
+    thinner than a wavelength lets tunnel through, and a conductor's phase on reflection included.
+    The film absorbs nothing: a dielectric stack transmits 1 - R (the same from both sides, at
+    Snell-related angles, as for any lossless stratified medium). At grazing incidence (c = 0) R = 1.
+
+    Where the film's wave propagates (q_2 real, the common case) r_12 is real and
+    |r|^2 = (r12^2 + |r23|^2 + 2 r12 Re z) / (1 + r12^2 |r23|^2 + 2 r12 Re z), z = r23 e^{i delta},
+    in real arithmetic (r_23 = x + i y written out, q_3 = u + i v); elsewhere in complex arithmetic
+    (``_film_fresnel_evanescent``)."""
+    conductor = np.iscomplexobj(n_t)
+    c, n_i, n_t, lam_nm = np.clip(c, 0.0, 1.0), np.asarray(n_i, dtype=float), np.asarray(n_t), np.asarray(lam_nm, dtype=float)
+    shape = np.broadcast_shapes(c.shape, n_i.shape, n_t.shape, lam_nm.shape)
+    nn1 = n_i * n_i
+    nn2 = float(n_film) ** 2
+    s2 = nn1 * (1.0 - c * c)
+    q1 = n_i * c
+    q2sq = nn2 - s2
+    q2 = np.sqrt(np.maximum(q2sq, 0.0))
+    nn3 = n_t * n_t
+    if conductor:
+        q3 = np.sqrt(nn3 - s2)  # the principal root: Im >= 0 since Im(N^2) = 2 eta k >= 0
+        u, v, e_re, e_im = q3.real, q3.imag, nn3.real, nn3.imag
+    else:
+        t = nn3 - s2
+        u, v = np.sqrt(np.maximum(t, 0.0)), np.sqrt(np.maximum(-t, 0.0))
+        e_re, e_im = nn3, 0.0
+    delta = (4.0 * math.pi * float(thickness_nm)) * q2 / lam_nm
+    cos_d, sin_d = np.cos(delta), np.sin(delta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # s: r_23 = (q2 - q3) / (q2 + q3)
+        den = (q2 + u) ** 2 + v * v
+        r_s = _airy((q1 - q2) / (q1 + q2), (q2 * q2 - u * u - v * v) / den, -2.0 * v * q2 / den, cos_d, sin_d)
+        # p: r_23 = (P - H) / (P + H), P = N3^2 q2, H = n2^2 q3
+        p_re, p_im, h_re, h_im = e_re * q2, e_im * q2, nn2 * u, nn2 * v
+        den = (p_re + h_re) ** 2 + (p_im + h_im) ** 2
+        r_p = _airy((nn2 * q1 - nn1 * q2) / (nn2 * q1 + nn1 * q2), (p_re * p_re + p_im * p_im - h_re * h_re - h_im * h_im) / den,
+                    2.0 * (p_im * h_re - p_re * h_im) / den, cos_d, sin_d)
+        out = np.array(np.broadcast_to(0.5 * (r_s + r_p), shape))
+        ev = np.broadcast_to(q2sq < 0.0, shape)
+        if ev.any():
+            c_, n_i_, n_t_, lam_ = (np.broadcast_to(x, shape)[ev] for x in (c, n_i, n_t, lam_nm))
+            out[ev] = _film_fresnel_evanescent(c_, n_i_, nn2, float(thickness_nm), n_t_ * n_t_, lam_)
+    # the denominators vanish only at grazing incidence (c = 0) or on sets of measure zero
+    return np.where((c > 0.0) & np.isfinite(out), np.clip(out, 0.0, 1.0), 1.0)
+
+
+class Film:
+    """A thin film on an interface, for a batch of packets each at its own wavelength: the Fresnel
+    factor the walk uses in place of the bare interface's (``film_fresnel``).
+
+    ``n_out`` (K,): the absolute index of the side the packets arrive from (the walk's +z side);
+    a dielectric interface has ``n_in`` (K,), the other side's, and a conductor ``conductor`` =
+    (eta (3,), k (3,)), absolute, one per RGB channel (the film is spectral, the rest per channel)."""
+
+    def __init__(self, ior, thickness_nm, lam_nm, n_out, n_in=None, conductor=None):
+        self.ior, self.thickness = float(ior), float(thickness_nm)
+        self.lam = np.asarray(lam_nm, dtype=float)
+        self.n_out = np.broadcast_to(np.asarray(n_out, dtype=float), self.lam.shape)
+        self.n_in = None if n_in is None else np.broadcast_to(np.asarray(n_in, dtype=float), self.lam.shape)
+        self.conductor = conductor
+
+    def take(self, idx):
+        """The film for the packets ``idx``."""
+        return Film(self.ior, self.thickness, self.lam[idx], self.n_out[idx],
+                    None if self.n_in is None else self.n_in[idx], self.conductor)
+
+    def reflectance(self, c, inside=None):
+        """R at microfacet (or interface) cosine ``c``: (K,) for a dielectric, from the arrival
+        side, or from the other side where ``inside``; (K, 3) for a conductor."""
+        if self.conductor is not None:
+            n_t = np.asarray(self.conductor[0], dtype=float) + 1j * np.asarray(self.conductor[1], dtype=float)
+            return film_fresnel(np.asarray(c)[:, None], self.n_out[:, None], self.ior, self.thickness, n_t[None, :],
+                                self.lam[:, None])
+        n_i, n_t = self.n_out, self.n_in
+        if inside is not None:
+            n_i, n_t = np.where(inside, self.n_in, self.n_out), np.where(inside, self.n_out, self.n_in)
+        return film_fresnel(c, n_i, self.ior, self.thickness, n_t, self.lam)
 
 
 def smith_lambda(w, ax, ay):
@@ -149,26 +275,32 @@ def visible_ndf(i, m, ax, ay):
     return np.maximum(np.sum(i * m, 1), 0.0) * _ggx_d(m, ax, ay) / np.maximum(area, 1e-300)
 
 
-def phase(i, o, ax, ay, eta=None, conductor=None):
+def phase(i, o, ax, ay, eta=None, conductor=None, fresnel=None):
     """The microsurface's phase function in the frame of the side a ray travels in (microfacet
     normals up): the density of leaving along ``o`` after a hit by a ray arriving along -``i``,
     (K, 3). Reflection where o.z > 0 (times the Fresnel factor, RGB for a conductor),
-    refraction into the other side (index ratio ``eta`` = n_other / n_this) where o.z < 0."""
+    refraction into the other side (index ratio ``eta`` = n_other / n_this) where o.z < 0.
+    ``fresnel``: the Fresnel factor as a function of the microfacet cosine (a filmed facet,
+    ``Film.reflectance``: (K,) for a dielectric, (K, 3) for a conductor) in place of the bare one."""
     hr = i + o
     hr = hr / np.maximum(np.linalg.norm(hr, axis=1, keepdims=True), 1e-300)
     hr = hr * np.where(hr[:, 2] < 0.0, -1.0, 1.0)[:, None]
     ci = np.sum(i * hr, 1)
     base = visible_ndf(i, hr, ax, ay) / np.maximum(4.0 * ci, 1e-300) * (ci > 0)
     if conductor is not None:
-        f = np.stack([_fresnel_conductor(ci, conductor[0][c], conductor[1][c]) for c in range(3)], -1)
+        if fresnel is not None:
+            f = fresnel(ci)
+        else:
+            f = np.stack([_fresnel_conductor(ci, conductor[0][c], conductor[1][c]) for c in range(3)], -1)
         return np.where((o[:, 2] > 0.0)[:, None], f * base[:, None], 0.0)
-    refl = _fresnel_dielectric(ci, eta) * base
+    fres = (lambda c: _fresnel_dielectric(c, eta)) if fresnel is None else fresnel
+    refl = fres(ci) * base
     ht = -(i + eta[:, None] * o)
     ht = ht * np.where(ht[:, 2] < 0.0, -1.0, 1.0)[:, None]
     ht = ht / np.maximum(np.linalg.norm(ht, axis=1, keepdims=True), 1e-300)
     ih, oh = np.sum(i * ht, 1), np.sum(o * ht, 1)
     den = ih + eta * oh
-    trans = np.where((ih > 0) & (oh < 0), eta * eta * (1.0 - _fresnel_dielectric(ih, eta)) * visible_ndf(i, ht, ax, ay)
+    trans = np.where((ih > 0) & (oh < 0), eta * eta * (1.0 - fres(ih)) * visible_ndf(i, ht, ax, ay)
                      * np.abs(oh) / np.maximum(den * den, 1e-300), 0.0)
     return np.where(o[:, 2] > 0.0, refl, trans)[:, None] * np.ones(3)
 
@@ -183,7 +315,7 @@ def g2_transmission(lam_i, lam_o):
 
 
 def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int = MAX_ORDER, orders=None,
-         events: bool = False):
+         events: bool = False, film: Film | None = None):
     """Random walks on the microsurface for rays arriving along -``i`` (K, 3) from the side
     +z (the interface's frame, i.z > 0). ``eta``: n_below / n_above (K,) for a dielectric, or
     ``conductor`` = (eta (3,), k (3,)) relative to the medium above.
@@ -194,7 +326,10 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
     nothing). With ``target`` (K, 3): the stochastic estimate of f(i, target) |target.z| (K, 3)
     by next-event estimation at every vertex. ``orders``: count only these scattering orders
     (1 = single scattering), for the validation. ``events=True`` (without ``target``) also returns
-    how many times each walk scattered before it left (K,)."""
+    how many times each walk scattered before it left (K,). ``film``: a thin film on every microfacet
+    (``Film``, one wavelength per walk, arrival side +z), whose reflectance replaces the bare
+    Fresnel factor at every vertex, from the side the walk is on there, in the choice between
+    reflection and refraction, the conductor's weight and the next-event estimate alike."""
     K = i.shape[0]
     w = -np.asarray(i, dtype=float)  # the ray's direction in the frame of its side (normals up)
     h = np.full(K, 2.0)  # above the highest microfacet
@@ -224,18 +359,25 @@ def walk(i, ax, ay, rng, eta=None, conductor=None, target=None, max_order: int =
         ins = ~outside[idx]
         wi = -w[idx]
         eta_s = None if eta_out is None else np.where(ins, 1.0 / eta_out[idx], eta_out[idx])
+        fres = None
+        if film is not None:
+            f_idx = film.take(idx)
+            fres = (lambda cc, f_idx=f_idx, ins=ins: f_idx.reflectance(cc, None if conductor is not None else ins))
         if target is not None and (orders is None or order in orders):
             t = np.where(ins[:, None], -target[idx], target[idx])  # the target in this side's frame
             esc = np.where(t[:, 2] > 0.0, escape_probability(t, hh, ax, ay), escape_probability(-t, -hh, ax, ay))
-            q[idx] += energy[idx] * phase(wi, t, ax, ay, eta_s, conductor) * esc[:, None]
+            q[idx] += energy[idx] * phase(wi, t, ax, ay, eta_s, conductor, fres) * esc[:, None]
         m = sample_vndf_sphere(wi, ax, ay, rng.random(idx.size), rng.random(idx.size))
         c = np.sum(wi * m, 1)
         o = 2.0 * c[:, None] * m - wi
         if conductor is not None:
-            energy[idx] *= np.stack([_fresnel_conductor(c, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
+            if fres is not None:
+                energy[idx] *= fres(c)
+            else:
+                energy[idx] *= np.stack([_fresnel_conductor(c, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
             w[idx] = o
         else:
-            refract = rng.random(idx.size) >= _fresnel_dielectric(c, eta_s)
+            refract = rng.random(idx.size) >= (_fresnel_dielectric(c, eta_s) if fres is None else fres(c))
             ct = np.sqrt(np.maximum(1.0 - (1.0 - c * c) / (eta_s * eta_s), 0.0))
             o_t = -wi / eta_s[:, None] + (c / eta_s - ct)[:, None] * m
             # refracted: the walk goes on in the other side's frame, mirrored (Sec. 6.2)

@@ -42,21 +42,54 @@ event, so deeper paths are counted at their own last events. Smooth-only stacks 
 
 ``albedo`` counts escaping packets (no NEE): an independent check of ``eval_brdf_cos`` (its
 hemispherical integral must equal the albedo; a test does this).
+
+Thin films (a spectral walk)
+----------------------------
+A coat, a conductor base or a dielectric base may carry a thin film on its top interface
+(``layers.film``: ``film_thickness`` nm, ``film_ior``), whose reflectance depends on the wavelength.
+A stack with a film is walked spectrally: each packet carries one wavelength lambda, and at a
+filmed interface every Fresnel factor of the walk is the film's exact Airy reflectance at lambda
+(``microsurface.film_fresnel``, s and p averaged; Born and Wolf, *Principles of Optics*, Sections
+1.5-1.6): the choice between reflection and refraction at smooth and rough interfaces (T = 1 - R:
+the film absorbs nothing), a conductor's weight (R only), the densities of next-event estimation
+(``_rough_q``), the delta-only exit series (``_Exit``, then built per packet) and every vertex of
+the walk on the microsurface (``microsurface.walk``; Heitz et al. 2016), each from the side the light
+arrives on (a lossless film reflects the same from both sides at Snell-related angles, which the
+exit series uses; the walk computes each side's own). Everything else keeps its RGB value per
+channel (absorption, scattering, a conductor's eta and k, an albedo), so channel c of a packet is
+the walk with channel c's properties and the films at lambda, and its contribution is weighted by
+W_c(lambda) / p(lambda): W_c is channel c's colour matching weight (CIE 1931 through linear
+Rec.709, ``thin_film_spectral.cmfs``, unit sum per channel, so a spectrally flat reflectance is the
+same in every channel and a film's colour is ``thin_film_spectral.spectrum_to_rgb`` of its
+spectrum). The estimate of channel c is then sum_lambda W_c(lambda) x (that walk), which is what
+the models' RGB film means (the film's reflectance projected per channel, the rest per channel).
+
+Wavelengths are drawn independently per packet from the 1 nm grid of the colour matching functions
+(360-830 nm, where W_c is defined: the estimate is unbiased for exactly the sum above, with no
+quadrature of its own) with p proportional to sqrt(sum_c W_c^2), the density that minimises the
+summed variance of the three channels for a flat spectrum (Cauchy-Schwarz): 2.9 times a flat
+spectrum's squared value per channel against 6.9 for uniform sampling. (W_c has negative lobes, so
+channel weights are signed.) Independent draws keep the packets independent, so the standard
+errors stay the sample variance over packets, as for a stack without a film; stratifying the
+wavelengths would lower the noise but make that error estimate an overestimate. A stack without a
+film draws no wavelength and takes the RGB walk unchanged, number for number.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from . import microsurface
-from .microsurface import _fresnel_conductor, _fresnel_dielectric, _ggx_d, sample_vndf, smith_lambda
+from .microsurface import Film, _fresnel_conductor, _fresnel_dielectric, _ggx_d, sample_vndf, smith_lambda
 from lamella.core.stack import Stack
 
 ALPHA_MIN = 1e-4  # a rough interface with one zero axis is evaluated with this floor on that axis
 MAX_EVENTS = 256
 INTERFACES = ("single", "multiple")  # rough interfaces: pbrt-v4's single scattering, or Heitz et al. 2016's walk
 CHUNK = 1 << 19
+FILM_CHUNK = 1 << 16  # packets per batch when each carries its own exit series (a smooth filmed interface)
 
 
 def _hg(cos_t, g):
@@ -127,6 +160,16 @@ class _Layers:
         self.sin_r = np.sin(rot)
         self.base = b
         self.n_sub = b.ior if b.type == "dielectric" else None
+        # thin films on the interfaces (``layers.film``): interface j carries coat j's, the base's
+        # is interface N; a diffuse base has no interface to carry one
+        if b.type == "diffuse" and getattr(b, "film_thickness", 0.0) > 0.0:
+            raise ValueError("base: the stochastic reference has no thin film on a 'diffuse' base (it has no interface)")
+        self.film_d = np.array([c.film_thickness for c in coats] + [getattr(b, "film_thickness", 0.0)], dtype=float)
+        self.film_n = np.array([c.film_ior for c in coats] + [getattr(b, "film_ior", 1.0)], dtype=float)
+        self.filmed = bool((self.film_d > 0.0).any())
+        # a smooth filmed interface enters the delta-only exit series, which then depends on the
+        # packet's wavelength
+        self.film_in_exit = bool(((self.film_d > 0.0) & self.smooth).any())
 
     def to_local(self, j, w):
         c, s = self.cos_r[j], self.sin_r[j]
@@ -139,11 +182,27 @@ class _Layers:
     def n_below(self, j):
         return self.n[j + 1] if j < self.N else self.n_sub
 
+    def film(self, j, lam, flip):
+        """The thin film on interface j for packets of wavelengths ``lam`` (nm) arriving from above,
+        or from below where ``flip``, as the walk's frames see it (``microsurface.Film``); None
+        without a film (or without wavelengths: a stack with no film)."""
+        if lam is None or self.film_d[j] <= 0.0:
+            return None
+        n_above = self.n[j]
+        if j == self.N and self.base.type == "conductor":
+            return Film(self.film_n[j], self.film_d[j], lam, n_above,
+                        conductor=(np.asarray(self.base.eta, dtype=float), np.asarray(self.base.k, dtype=float)))
+        n_below = self.n_below(j)
+        return Film(self.film_n[j], self.film_d[j], lam, np.where(flip, n_below, n_above),
+                    n_in=np.where(flip, n_above, n_below))
+
 
 # ---------------------------------------------------------------- interface events
-def _rough_q(L: _Layers, j, i, o, eta_rel, conductor=None):
+def _rough_q(L: _Layers, j, i, o, eta_rel, conductor=None, film=None):
     """Density q(o) of a rough-interface event for a packet arriving along -i, in a frame where
-    i.z > 0 (the side it arrives from is +z). Reflection if o.z > 0, transmission if o.z < 0."""
+    i.z > 0 (the side it arrives from is +z). Reflection if o.z > 0, transmission if o.z < 0.
+    ``film``: the interface's thin film at each packet's wavelength (``microsurface.Film``), whose
+    reflectance at the microfacet's cosine replaces the bare Fresnel factor."""
     ax, ay = L.alpha[j]
     il, ol = L.to_local(j, i), L.to_local(j, o)
     refl = ol[:, 2] > 0
@@ -156,9 +215,13 @@ def _rough_q(L: _Layers, j, i, o, eta_rel, conductor=None):
     d_r = _ggx_d(hr, ax, ay)
     if conductor is not None:
         eta_c, k_c = conductor
-        f = np.stack([_fresnel_conductor(ci_r, eta_c[c], k_c[c]) for c in range(3)], -1)
+        if film is not None:
+            f = film.reflectance(ci_r)
+        else:
+            f = np.stack([_fresnel_conductor(ci_r, eta_c[c], k_c[c]) for c in range(3)], -1)
         return (f * (d_r * g2 / (4.0 * il[:, 2]))[:, None]) * refl[:, None]
-    q_r = _fresnel_dielectric(ci_r, eta_rel) * d_r * g2 / (4.0 * il[:, 2])
+    fres = (lambda c: _fresnel_dielectric(c, eta_rel)) if film is None else film.reflectance
+    q_r = fres(ci_r) * d_r * g2 / (4.0 * il[:, 2])
     # transmission (Walter 2007): generalised half vector toward the side of i
     eta_rel = np.broadcast_to(np.asarray(eta_rel, dtype=float), il.shape[:1])
     ht = -(il + eta_rel[:, None] * ol)
@@ -167,7 +230,7 @@ def _rough_q(L: _Layers, j, i, o, eta_rel, conductor=None):
     ih, oh = np.sum(il * ht, 1), np.sum(ol * ht, 1)
     ok = (ih > 0) & (oh < 0)
     den = ih + eta_rel * oh
-    q_t = np.where(ok, np.abs(ih * oh) * eta_rel ** 2 * (1.0 - _fresnel_dielectric(ih, eta_rel))
+    q_t = np.where(ok, np.abs(ih * oh) * eta_rel ** 2 * (1.0 - fres(ih))
                    * _ggx_d(ht, ax, ay) * g2 / (il[:, 2] * np.maximum(den * den, 1e-300)), 0.0)
     return np.where(refl, q_r, q_t)[:, None] * np.ones(3)
 
@@ -179,9 +242,12 @@ def _flip(w, flip):
 # ---------------------------------------------------------------- delta-only exit series
 class _Exit:
     """For each pair's exit direction: the Snell direction in every medium, the closed-form series
-    of delta-only paths from each medium to the exit, and the solid-angle Jacobians."""
+    of delta-only paths from each medium to the exit, and the solid-angle Jacobians. With ``lam``
+    (one wavelength per row, nm), a smooth interface's thin film reflects at that wavelength (its
+    reflectance from above: a lossless film reflects the same from below at the Snell-related
+    angle, and totally where either side's direction is evanescent)."""
 
-    def __init__(self, L: _Layers, wo: np.ndarray):
+    def __init__(self, L: _Layers, wo: np.ndarray, lam: np.ndarray | None = None):
         self.up = wo[:, 2] > 0
         P = wo.shape[0]
         N = L.N
@@ -217,6 +283,10 @@ class _Exit:
             elif L.base.type == "conductor":
                 F[:, j] = np.stack([_fresnel_conductor(cj, L.base.eta[c] / L.n[N], L.base.k[c] / L.n[N])
                                     for c in range(3)], -1)
+            film = L.film(j, lam, np.zeros(P, bool)) if L.smooth[j] else None
+            if film is not None:
+                f = film.reflectance(cj)
+                F[:, j] = f if f.ndim == 2 else f[:, None]
         self.F = F
         delta = L.smooth.copy()
         if L.base.type == "diffuse":
@@ -263,22 +333,25 @@ class _Exit:
         self.Xtop, self.UpB, self.Xbot, self.DnT = Xtop, UpB, Xbot, DnT
         self.wo = wo
 
-    def direction(self, m: int, up: bool) -> np.ndarray:
-        """The exit path's direction in medium m (world frame), going up or down, per pair."""
-        z = self.c[:, m] if up else -self.c[:, m]
-        return np.concatenate([self.t[:, m], z[:, None]], 1)
+    def direction(self, m: int, up: bool, p: np.ndarray) -> np.ndarray:
+        """The exit path's direction in medium m (world frame), going up or down, for the pairs p."""
+        z = self.c[p, m] if up else -self.c[p, m]
+        return np.concatenate([self.t[p, m], z[:, None]], 1)
 
-    def after_interface(self, m: int, up: bool) -> np.ndarray:
+    def after_interface(self, m: int, up: bool, p: np.ndarray) -> np.ndarray:
         """Delta-only weight from the boundary of medium m where a packet enters it (its bottom
-        going up: reflection exits; its top going down: transmission exits), times the Jacobian."""
-        w = self.UpB[:, m] if up else self.DnT[:, m]
-        return w * self.jac[:, m, None]
+        going up: reflection exits; its top going down: transmission exits), times the Jacobian,
+        for the pairs p."""
+        w = self.UpB[p, m] if up else self.DnT[p, m]
+        return w * self.jac[p, m, None]
 
 
 # ---------------------------------------------------------------- the walk
-def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray):
+def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray, lam: np.ndarray | None = None):
     """Trace packets entering along -wi (one row per packet). Returns (reflected, transmitted,
-    nee) per packet, RGB: escaped energy up / down and the NEE estimate toward each pair's wo."""
+    nee) per packet, RGB: escaped energy up / down and the NEE estimate toward each pair's wo.
+    ``lam``: each packet's wavelength (nm) for a stack with thin films, which reflect at it (channel
+    c of the result is then the walk with channel c's properties and the films at ``lam``)."""
     K = wi.shape[0]
     N = L.N
     pos = np.zeros(K, dtype=np.int64)  # medium index (0 = outside above; N+1 = substrate)
@@ -303,7 +376,8 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
                 continue
             if not L.smooth[j] or (j == N and L.base.type == "diffuse"):
                 scattered[sel] = True
-            _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng)
+            _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng,
+                       None if lam is None else lam[sel])
         # --- propagation inside media
         moving = np.nonzero(alive & ~pending)[0]
         if moving.size:
@@ -327,7 +401,7 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
     return refl, trans, nee, scattered
 
 
-def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng):
+def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng, lam=None):
     N = L.N
     wj = w[sel]
     n_above, n_below = L.n[j], L.n_below(j)
@@ -339,9 +413,9 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
         # Lambertian: NEE then cosine sampling
         if exit_ is not None:
             up_pair = exit_.up[pair[sel]]
-            d = exit_.direction(N, True)[pair[sel]]
+            d = exit_.direction(N, True, pair[sel])
             q = np.asarray(L.base.albedo)[None, :] * (d[:, 2] / math.pi)[:, None]
-            nee[sel] += np.where(up_pair[:, None], beta[sel] * q * exit_.after_interface(N, True)[pair[sel]], 0.0)
+            nee[sel] += np.where(up_pair[:, None], beta[sel] * q * exit_.after_interface(N, True, pair[sel]), 0.0)
         u1, u2 = rng.random(sel.size), rng.random(sel.size)
         r, ph = np.sqrt(u1), 2 * math.pi * u2
         o = np.stack([r * np.cos(ph), r * np.sin(ph), np.sqrt(np.maximum(1 - u1, 0.0))], -1)
@@ -357,15 +431,19 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
         eta_rel = None
     else:
         eta_rel = np.where(flip, n_above / n_below, n_below / n_above)
+    film = L.film(j, lam, flip)
     if L.smooth[j]:
         c = i_f[:, 2]
+        if film is not None:
+            f = film.reflectance(c)
         if conductor is not None:
-            f = np.stack([_fresnel_conductor(c, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
+            if film is None:
+                f = np.stack([_fresnel_conductor(c, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
             beta[sel] *= f
             o_f = i_f * np.array([-1.0, -1.0, 1.0])
             reflect = np.ones(sel.size, bool)
         else:
-            F = _fresnel_dielectric(c, eta_rel)
+            F = _fresnel_dielectric(c, eta_rel) if film is None else f
             reflect = rng.random(sel.size) < F
             ct = np.sqrt(np.maximum(eta_rel ** 2 - 1.0 + c * c, 0.0) / eta_rel ** 2)
             o_t = np.concatenate([-i_f[:, :2] / eta_rel[:, None], -ct[:, None]], 1)
@@ -373,11 +451,11 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
     else:
         # NEE toward the exit, then sample
         if exit_ is not None:
-            _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng)
+            _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng, film)
         ax, ay = L.alpha[j]
         il = L.to_local(j, i_f)
         if L.multiple:  # the random walk on the microsurface decides where the packet leaves
-            ol, weight, left = microsurface.walk(il, ax, ay, rng, eta=eta_rel, conductor=conductor)
+            ol, weight, left = microsurface.walk(il, ax, ay, rng, eta=eta_rel, conductor=conductor, film=film)
             o_f = L.to_world(j, np.where(left[:, None], ol, np.array([0.0, 0.0, 1.0])))
             beta[sel] *= weight
             alive[sel[~left]] = False
@@ -387,12 +465,15 @@ def _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng
         ci = np.sum(i_f * h, 1)
         o_r = 2.0 * ci[:, None] * h - i_f
         if conductor is not None:
-            f = np.stack([_fresnel_conductor(ci, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
+            if film is not None:
+                f = film.reflectance(ci)
+            else:
+                f = np.stack([_fresnel_conductor(ci, conductor[0][k], conductor[1][k]) for k in range(3)], -1)
             o_f = o_r
             reflect = np.ones(sel.size, bool)
             weight_rgb = f
         else:
-            F = _fresnel_dielectric(ci, eta_rel)
+            F = _fresnel_dielectric(ci, eta_rel) if film is None else film.reflectance(ci)
             reflect = rng.random(sel.size) < F
             ct = np.sqrt(np.maximum(eta_rel ** 2 - 1.0 + ci * ci, 0.0) / eta_rel ** 2)
             o_t = (-i_f + ci[:, None] * h) / eta_rel[:, None] - ct[:, None] * h
@@ -419,7 +500,7 @@ def _leave_interface(L, j, sel, o_f, flip, w, pos, z, pending):
     pending[sel] = False
 
 
-def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng):
+def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pair, nee, rng, film=None):
     """Connect a rough-interface event to the exit: reflection / transmission into the medium on
     either side, each followed by that side's delta-only series. With multiple-scattering
     interfaces the density toward the exit is the microsurface walk's own (stochastic) estimate."""
@@ -429,15 +510,15 @@ def _nee_interface(L, j, sel, i, i_f, flip, eta_rel, conductor, beta, exit_, pai
         m = j if up else j + 1
         if m > N + 1 or (m == N + 1 and L.n_sub is None) or (not up and conductor is not None):
             continue
-        d = exit_.direction(m, up)[p]
+        d = exit_.direction(m, up, p)
         d_f = _flip(d, flip)
         if L.multiple:
             ax, ay = L.alpha[j]
             q = microsurface.walk(L.to_local(j, i_f), ax, ay, rng, eta=eta_rel, conductor=conductor,
-                                  target=L.to_local(j, d_f))
+                                  target=L.to_local(j, d_f), film=film)
         else:
-            q = _rough_q(L, j, i_f, d_f, eta_rel if eta_rel is not None else 1.0, conductor)
-        tail = exit_.after_interface(m, up)[p]
+            q = _rough_q(L, j, i_f, d_f, eta_rel if eta_rel is not None else 1.0, conductor, film)
+        tail = exit_.after_interface(m, up, p)
         # going up, only exits through the top are delta-only (coming back down would cross this
         # rough interface again); going down, only exits through the base
         valid = exit_.valid[p, m] & (exit_.up[p] if up else ~exit_.up[p])
@@ -506,7 +587,7 @@ def _nee_medium(L, gi, mm, w, z, beta, exit_, pair, nee):
         sig_t = L.sig_t[m]
         zz = z[g_idx]
         for up in (True, False):
-            d = exit_.direction(m, up)[pp]
+            d = exit_.direction(m, up, pp)
             ph = _hg(np.sum(w[g_idx] * d, 1), L.g[m])
             # exit upward: straight up then X_top, or first down to the delta reflector below
             tr_first = np.exp(-sig_t[None, :] * ((zz if up else th - zz) / c)[:, None])
@@ -520,6 +601,33 @@ def _nee_medium(L, gi, mm, w, z, beta, exit_, pair, nee):
                 tail_t = tr_first * exit_.Xbot[pp, m]
             tail = np.where(refl_up, tail_r, tail_t) * exit_.jac[pp, m, None]
             nee[g_idx] += np.where(valid[:, None], beta[g_idx] * ph[:, None] * tail, 0.0)
+
+
+# ---------------------------------------------------------------- wavelengths (thin films)
+@functools.lru_cache(maxsize=None)
+def _spectrum():
+    """The wavelength grid (nm), its sampling CDF and each wavelength's channel weights W_c / p:
+    W_c is channel c's colour matching weight of ``thin_film_spectral.cmfs(1)`` (CIE 1931 through
+    Rec.709, unit sum per channel: a flat reflectance gives the same value in every channel), and
+    p is proportional to sqrt(sum_c W_c^2)."""
+    from .thin_film_spectral import cmfs
+
+    lam, w = cmfs(1)
+    p = np.sqrt((w * w).sum(1))
+    p /= p.sum()
+    cdf = np.cumsum(p)
+    cdf /= cdf[-1]
+    keep = p > 0.0
+    ratio = np.zeros_like(w)
+    ratio[keep] = w[keep] / p[keep, None]
+    return lam, cdf, ratio
+
+
+def _sample_wavelengths(rng, k: int):
+    """(wavelengths (k,) in nm, channel weights (k, 3)) for k packets, drawn independently."""
+    lam, cdf, ratio = _spectrum()
+    idx = np.minimum(np.searchsorted(cdf, rng.random(k), side="right"), lam.size - 1)
+    return lam[idx], ratio[idx]
 
 
 # ---------------------------------------------------------------- public API
@@ -574,11 +682,21 @@ def eval_brdf_cos(stack, wi, wo, spp: int, seed: int = 0, interfaces: str = "sin
     rng = np.random.default_rng(seed)
     total = np.zeros((P, 3))
     total2 = np.zeros((P, 3))
-    per_chunk = max(1, CHUNK // max(spp, 1))
+    # a smooth filmed interface makes the exit series depend on each packet's wavelength: then
+    # it is built per packet, in smaller batches
+    per_chunk = max(1, (FILM_CHUNK if L.film_in_exit else CHUNK) // max(spp, 1))
     for start in range(0, P, per_chunk):
         stop = min(P, start + per_chunk)
         pair = np.repeat(np.arange(start, stop), spp)
-        _, _, nee, _ = _walk(L, wi[pair], rng, exit_, pair)
+        if L.filmed:
+            lam, weight = _sample_wavelengths(rng, pair.size)
+            if L.film_in_exit:
+                _, _, nee, _ = _walk(L, wi[pair], rng, _Exit(L, wo[pair], lam), np.arange(pair.size), lam)
+            else:
+                _, _, nee, _ = _walk(L, wi[pair], rng, exit_, pair, lam)
+            nee *= weight
+        else:
+            _, _, nee, _ = _walk(L, wi[pair], rng, exit_, pair)
         s = nee.reshape(stop - start, spp, 3)
         total[start:stop] = s.sum(1)
         total2[start:stop] = (s * s).sum(1)
@@ -609,7 +727,12 @@ def albedo(stack, wi, spp: int, seed: int = 0, side: str = "reflected", exclude_
         left = spp
         while left > 0:
             k = min(left, CHUNK)
-            r, t, _, scattered = _walk(L, np.broadcast_to(w, (k, 3)).copy(), rng, None, np.zeros(k, np.int64))
+            if L.filmed:
+                lam, weight = _sample_wavelengths(rng, k)
+                r, t, _, scattered = _walk(L, np.broadcast_to(w, (k, 3)).copy(), rng, None, np.zeros(k, np.int64), lam)
+                r, t = r * weight, t * weight
+            else:
+                r, t, _, scattered = _walk(L, np.broadcast_to(w, (k, 3)).copy(), rng, None, np.zeros(k, np.int64))
             v = r if side == "reflected" else t
             if exclude_delta:
                 v = v * scattered[:, None]
