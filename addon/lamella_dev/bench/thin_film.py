@@ -1,5 +1,6 @@
 """`lamella bench thin-film`: Lamella's thin film against Blender's own (the Principled BSDF's and the
-Metallic BSDF's Thin Film inputs) and against the exact spectral colour.
+Metallic BSDF's Thin Film inputs), against the exact spectral colour, and each model against the
+spectral stochastic reference (binned BRDF and albedo, ``film_accuracy``).
 
 Where both can express a film: a dielectric interface under a film (Lamella: a coat of index 1.5
 over a black base, so only the interface reflects; Blender: the Principled BSDF with a black base
@@ -112,6 +113,29 @@ def rows(progress=print) -> list[dict]:
     return out
 
 
+REFERENCE_SPP, REFERENCE_ALBEDO_SPP = 2048, 1 << 17
+
+
+def _plain(rows: list[dict]) -> list[dict]:
+    return [{k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()} for r in rows]
+
+
+def reference_rows(progress=print) -> dict:
+    """Each model (``auto``) against the spectral stochastic reference (``lamella_dev.reference``:
+    the film's exact reflectance per wavelength) on the stacks of ``film_accuracy``, beside the same
+    stacks without their films."""
+    from .. import film_accuracy as fa
+
+    out = {}
+    for name, d in fa.STACKS.items():
+        rows = fa.measure(d, REFERENCE_SPP, REFERENCE_ALBEDO_SPP, "multiple")
+        bare = fa.measure(fa.without_film(d), REFERENCE_SPP, REFERENCE_ALBEDO_SPP, "multiple")
+        out[name] = {"rows": _plain(rows), "bare": _plain(bare)}
+        errs = ", ".join(f"{r['albedo_err']:.3f}" for r in rows)
+        progress(f"{name}: albedo err {errs}")
+    return out
+
+
 def _f(x) -> str:
     return "" if x is None else f"{x:.2f}"
 
@@ -136,11 +160,22 @@ def format_markdown(data) -> str:
               f"{max(r['de_lamella_blender'] for r in rs):.2f}); over the {len(smooth)} smooth ones, against the exact "
               f"colour, Lamella {np.mean([r['de_lamella_exact'] for r in smooth]):.2f} and Blender "
               f"{np.mean([r['de_blender_exact'] for r in smooth]):.2f}.", ""]
+    if data.get("reference"):
+        from .. import film_accuracy as fa
+
+        lines += ["## Against the spectral stochastic reference", "",
+                  "The model (`auto`) against `lamella_dev.reference` with the film's exact reflectance per "
+                  "wavelength (a spectral walk, RGB through the CIE 1931 curves; energy-conserving rough interfaces), "
+                  f"{REFERENCE_SPP} samples per direction of the hemisphere grid, {REFERENCE_ALBEDO_SPP} walkers per "
+                  "albedo; beside the same stack without its film (what the film adds to the model's error). Relative "
+                  "L1 as `bench/accuracy.md` computes it, the reference's own noise in brackets.", ""]
+        for name, r in data["reference"].items():
+            lines += fa.table(name, r["rows"], r["bare"])
     return "\n".join(lines)
 
 
 def run(out_dir: Path = BENCH_DIR, progress=print) -> Path:
-    data = {"res": RES, "spp": SPP, "rows": rows(progress)}
+    data = {"res": RES, "spp": SPP, "rows": rows(progress), "reference": reference_rows(progress)}
     return write_page(out_dir, "thin_film", lambda: format_markdown(data), data)
 
 
