@@ -28,8 +28,9 @@ MASKED = [p.id for p in presets.builtin() if p.inputs]
 @pytest.mark.parametrize("engine", ["osl", "svm", "eevee"])
 def test_a_preset_with_procedural_inputs_links_them_and_renders_in_every_engine(addon, engine):
     """Worn Lacquer on Wood links a wear mask into the lacquer's coverage, Dust on Upward Faces the
-    world normal's z into the dust's: each renders in Cycles with and without OSL and in EEVEE, and
-    differs from its stack without the mask (coverage as the panel holds it)."""
+    world normal's z into the dust's, the films a thickness, Car Paint orange peel and flakes into
+    normals: each renders in Cycles with and without OSL and in EEVEE, and (in Cycles with OSL)
+    differs from its stack without them (the panel's values)."""
     from lamella.blender import input_recipes
     from lamella_dev.render import use_eevee
 
@@ -51,6 +52,8 @@ def test_a_preset_with_procedural_inputs_links_them_and_renders_in_every_engine(
             assert sock.is_linked and sock.links[0].from_node.get(input_recipes.RECIPE_KEY) == recipe
         masked = render(sc)
         assert np.isfinite(masked).all() and (masked >= 0).all()
+        if engine != "osl":  # the inputs' effect is measured once, in Cycles with OSL
+            continue
         api.apply_stack(mat, preset.load())  # the same stack, the mask's nodes left unlinked
         for socket, _ in preset.inputs:
             layer, _, field = socket.partition("_")
