@@ -435,6 +435,16 @@ def write_node_groups(out_dir: Path = NODE_GROUPS_DIR, python: str | Path | None
     if r.returncode != 0:
         raise RuntimeError(f"building the node groups failed (exit {r.returncode}):\n{r.stdout[-3000:]}\n"
                            f"{r.stderr[-3000:]}")
+    # The manifest's digests are what this Python compiles (the one the staleness test runs in): the
+    # oldest Blender's numpy rounds a film's transcendental functions differently in the last bits,
+    # which the tables' pixels carry.
+    path = Path(out_dir) / MANIFEST
+    manifest = json.loads(path.read_text())
+    by_id = {p.id: p for p in _presets()}
+    for entry in manifest["presets"]:
+        entry.update(manifest_entry(by_id[entry["id"]]))
+    path.write_text(json.dumps(manifest, indent=2) + "\n")
+    (Path(out_dir) / README).write_text(node_groups_readme(manifest))
     return Path(out_dir) / LIBRARY_FILE
 
 

@@ -53,7 +53,8 @@ def test_the_node_shows_the_panels_fields_in_its_order_units_and_labels(addon):
     recompile.flush()
     names = [s.name for s in material_nodes.face_node(mat).inputs]
     assert names[:4] == ["Lacquer: IOR", "Lacquer: Roughness", "Lacquer: Roughness Y", "Lacquer: Rotation"]
-    assert names[-3:] == ["Base: Color", "Normal", "Tangent"]
+    assert names[-4:] == ["Base: Color", "Base: Normal", "Normal", "Tangent"]  # each layer's own normal last
+    assert names.count("Lacquer: Normal") == 1
     assert api.input_socket(mat, 0, "roughness").default_value == pytest.approx(0.3)  # Blender's r
     assert api.input_socket(mat, 0, "roughness_y").default_value == pytest.approx(0.2)
     assert tuple(api.input_socket(mat, "base", "albedo").default_value)[:3] == pytest.approx((0.5, 0.4, 0.3))

@@ -91,3 +91,13 @@ def test_lobes_of_different_frames_never_merge():
     framed = staging.stage(THREE, live=["coat0_normal", "base_normal"], budget=1)
     assert len(framed.closures) > len(merged.closures)
     assert len({c.framed(framed.normals) for c in framed.closures}) > 1
+
+
+def test_a_stack_traced_before_with_other_indices_weighs_its_own_tilts():
+    """The trace is shared by stacks of one structure; the frames' weights are each stack's own."""
+    a = Stack.from_dict({"layers": [{"ior": 1.5}], "base": {"type": "conductor", "roughness": 0.1}})
+    b = Stack.from_dict({"layers": [{"ior": 1.3}], "base": {"type": "conductor", "roughness": 0.1}})
+    for stack, n in ((a, 1.5), (b, 1.3), (a, 1.5)):
+        st = staging.stage(stack, live=["coat0_normal"], budget="all")
+        base = next(c for c in st.closures if c.normal == "base" and c.kind.name == "reflection")
+        assert base.framed(st.normals) == (("coat0", pytest.approx(-(n - 1.0))),)

@@ -102,12 +102,19 @@ def trace_closures(stack, model: str = "auto", live=()) -> TracedClosures:
     if hit is not None:
         tracer = copy.copy(hit.tracer)
         tracer.defaults = declared_params(stack, partial)
-        return TracedClosures(stack, hit.model, tracer, hit.wi, hit.closures, partial, hit.covered)
+        # the closures' frames weigh the layers' tilts by this stack's indices (``layer_normals``)
+        return TracedClosures(stack, hit.model, tracer, hit.wi, _tilted(stack, hit.closures), partial,
+                              _tilted(stack, hit.covered))
     traced = _trace(stack, model, partial)
     if len(_TRACES) >= _TRACES_KEPT:
         _TRACES.pop(next(iter(_TRACES)))
     _TRACES[key] = traced
     return traced
+
+
+def _tilted(stack, closures: list) -> list:
+    """``closures`` with the tilt weights of ``stack``'s indices."""
+    return [replace(c, tilts=tilts(stack, c.normal, c.lobe.above or (), c.lobe.kind)) for c in closures]
 
 
 def _trace(stack, model: str, partial=()) -> TracedClosures:
