@@ -102,7 +102,8 @@ def test_a_value_edit_reuses_the_trace_and_stages_as_a_fresh_trace(case):
     closures._TRACES.clear()
     first = closures.trace_closures(Stack.from_dict(d))
     again = closures.trace_closures(Stack.from_dict(edited))
-    assert again.closures is first.closures and again.tracer.defaults != first.tracer.defaults
+    assert all(a.weight is b.weight and a.args is b.args for a, b in zip(again.closures, first.closures))
+    assert len(again.closures) == len(first.closures) and again.tracer.defaults != first.tracer.defaults
     cached = emit_osl(Stack.from_dict(edited))
     closures._TRACES.clear()
     assert emit_osl(Stack.from_dict(edited)) == cached
