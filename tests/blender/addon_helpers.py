@@ -24,6 +24,19 @@ def sphere_scene(res=48, spp=8, scene="sphere-env"):
     return build_scene(scene, res, spp)
 
 
+def engine_scene(engine: str, res=48, spp=8):
+    """``sphere_scene`` rendered by ``engine``: "osl" (Cycles with OSL), "svm" (Cycles without OSL)
+    or "eevee"."""
+    from lamella_dev.render import use_eevee
+
+    sc, sphere = sphere_scene(res, spp)
+    if engine == "svm":
+        sc.cycles.shading_system = False
+    elif engine == "eevee":
+        use_eevee(sc)
+    return sc, sphere
+
+
 def render(sc) -> np.ndarray:
     from lamella_dev.render import render_scene
 

@@ -8,7 +8,7 @@ from lamella.core import metals, presets
 pytest.importorskip("bpy")
 from lamella.blender import api  # noqa: E402
 
-from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
+from .addon_helpers import engine_scene, new_material, render, sphere_scene  # noqa: E402
 
 
 @pytest.mark.parametrize("preset", [p.id for p in presets.builtin()])
@@ -33,16 +33,10 @@ def test_a_preset_with_procedural_inputs_links_them_and_renders_in_every_engine(
     textured film's OSL render is the finite-render test's) and in EEVEE, and (in Cycles without
     OSL) differs from its stack without them (the panel's values)."""
     from lamella.blender import input_recipes
-    from lamella_dev.render import use_eevee
-
     assert {"worn_lacquer_on_wood", "dust_on_upward_faces"} <= set(MASKED)
     for pid in MASKED:
         preset = presets.find(pid)
-        sc, sphere = sphere_scene(res=32, spp=8)
-        if engine == "svm":
-            sc.cycles.shading_system = False
-        elif engine == "eevee":
-            use_eevee(sc)
+        sc, sphere = engine_scene(engine, res=32, spp=8)
         mat = new_material(sphere, f"{pid}_{engine}")
         addon.ops.lamella.preset_apply(material=mat.name, preset=pid)
         assert mat.lamella.status == "OK", mat.lamella.status_message

@@ -7,9 +7,9 @@ import pytest
 
 pytest.importorskip("bpy")
 from lamella.blender import api, recompile  # noqa: E402
-from lamella_dev.render import node_tree, use_eevee  # noqa: E402
+from lamella_dev.render import node_tree  # noqa: E402
 
-from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
+from .addon_helpers import engine_scene, new_material, render  # noqa: E402
 
 WOOD = {"type": "diffuse", "albedo": [0.5, 0.3, 0.15]}
 VARNISH = {"ior": 1.5, "roughness": 0.01, "thickness": 0.4, "sigma_a": [0.1, 0.5, 1.5]}
@@ -24,11 +24,7 @@ def _mask(nt):
 
 
 def _render(engine, what):
-    sc, sphere = sphere_scene(res=48, spp=32)
-    if engine == "svm":
-        sc.cycles.shading_system = False
-    elif engine == "eevee":
-        use_eevee(sc)
+    sc, sphere = engine_scene(engine, res=48, spp=32)
     mat = new_material(sphere, f"coverage_{engine}_{what}")
     nt = node_tree(mat)
     if what == "mask":  # the mask itself, as the renderer sees it at each pixel

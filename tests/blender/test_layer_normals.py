@@ -6,20 +6,16 @@ import pytest
 
 pytest.importorskip("bpy")
 from lamella.blender import api  # noqa: E402
-from lamella_dev.render import node_tree, use_eevee  # noqa: E402
+from lamella_dev.render import node_tree  # noqa: E402
 
-from .addon_helpers import new_material, render, sphere_scene  # noqa: E402
+from .addon_helpers import engine_scene, new_material, render  # noqa: E402
 
 STACK = {"layers": [{"ior": 1.5, "roughness": 0.001}],
          "base": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "roughness": 0.04}}
 
 
 def _render(engine, layer):
-    sc, sphere = sphere_scene(res=48, spp=32)
-    if engine == "svm":
-        sc.cycles.shading_system = False
-    elif engine == "eevee":
-        use_eevee(sc)
+    sc, sphere = engine_scene(engine, res=48, spp=32)
     mat = new_material(sphere, f"normals_{engine}_{layer}")
     api.apply_stack(mat, STACK)
     if layer is not None:
