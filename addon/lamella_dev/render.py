@@ -122,11 +122,12 @@ LAMELLA_NODE_ENGINES = ("lamella-osl", "lamella-svm", "lamella-eevee")
 
 
 def assign_material(sphere, stack, engine: str, model: str = "auto", budget="auto", staged: bool = True, live=(),
-                    live_axes="auto"):
+                    live_axes="auto", stand_ins: int | None = None):
     """A material showing ``stack`` through ``engine`` on ``sphere``: the staged shader (lobes
     merged to ``budget``, the sockets or parameters ``live`` read live, as if a texture were linked
     into them) or, with ``staged`` False, the whole traced model. ``live_axes``: the node group's
-    tables over linked parameters (``lower.emit_plan``)."""
+    tables over linked parameters (``lower.emit_plan``); ``stand_ins``: the node group's isotropic
+    lobes per anisotropic one in EEVEE (``lower.emit_plan``; default: the product's)."""
     bpy = _bpy()
     mat, nt, out = sphere_material(sphere, "lamella")
     if engine == "cycles-osl":
@@ -142,8 +143,9 @@ def assign_material(sphere, stack, engine: str, model: str = "auto", budget="aut
         from lamella.core.backends.nodes.lower import emit_plan
         from lamella.blender.node_group import build_group, group_name
 
+        extra = {} if stand_ins is None else {"stand_ins": stand_ins}
         group = build_group(emit_plan(stack, model, budget=budget, staged=staged, live=live,
-                                      image=f".lamella_table {mat.name}", live_axes=live_axes),
+                                      image=f".lamella_table {mat.name}", live_axes=live_axes, **extra),
                             group_name(stack.name))
         node = nt.nodes.new("ShaderNodeGroup")
         node.node_tree = group

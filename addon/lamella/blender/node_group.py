@@ -26,7 +26,7 @@ import bpy
 from ..core import luts
 from ..core.backends.ir.sockets import by_param, sockets
 from ..core.backends.nodes.partition import partition
-from ..core.backends.nodes.plan import Out, Plan, input_name, value_type
+from ..core.backends.nodes.plan import TARGETS, Out, Plan, input_name, value_type
 from ..core.param_id import normal_socket
 from .osl_compile import set_socket
 
@@ -434,7 +434,7 @@ def build_group(plan: Plan, name: str, tree=None):
     _sync_interface(tree, plan)
     tree.nodes.clear()
     tree.description = (f"Lamella layered material ({plan.model}): in Cycles the closures of the OSL shader; "
-                        "EEVEE renders anisotropic lobes isotropic (alpha = sqrt(ax ay)), see docs/node_groups.md")
+                        "in EEVEE each anisotropic lobe as isotropic lobes tilted along its streak, see docs/node_groups.md")
     nt = tree
     g = _Vec(nt)
     gin = nt.nodes.new("NodeGroupInput")
@@ -509,7 +509,7 @@ def build_group(plan: Plan, name: str, tree=None):
 
     x = (len(frames) + 2) * 2 * X_STEP
     g.x, g.y = x, 400.0
-    shader = None
+    sums = {target: None for target in TARGETS}  # each target's closures, summed
     lobes = nt.nodes.new("NodeFrame")
     lobes.label = "lobes"
     for b in plan.bsdfs:
@@ -529,18 +529,52 @@ def build_group(plan: Plan, name: str, tree=None):
         for sock, comps in b.vectors.items():
             if comps is not None:
                 nt.links.new(_local_to_world(g, comps, layer_frames.get(b.frame, frame), src), bsdf.inputs[sock])
-        if shader is None:
-            shader = bsdf.outputs[0]
-        else:
-            add = _new_node(nt, "ShaderNodeAddShader", {}, (x + 2 * X_STEP, g.y))
-            nt.links.new(shader, add.inputs[0])
-            nt.links.new(bsdf.outputs[0], add.inputs[1])
-            shader = add.outputs[0]
+        sums[b.target] = _added(nt, sums[b.target], bsdf.outputs[0], (x + 2 * X_STEP, g.y))
+    shader = sums["all"]
+    if sums["cycles"] is not None or sums["eevee"] is not None:
+        cycles = _added(nt, shader, sums["cycles"], (x + 3 * X_STEP, g.y))
+        eevee = _added(nt, shader, sums["eevee"], (x + 3 * X_STEP, g.y - Y_STEP))
+        mix = _new_node(nt, "ShaderNodeMixShader", {}, (x + 4 * X_STEP, g.y), "EEVEE: the stand-ins")
+        # Cycles drops the Shader to RGB node and reads the unlinked value of the socket it feeds
+        mix.inputs["Fac"].default_value = 0.0
+        nt.links.new(_eevee_switch(nt, (x + 3 * X_STEP, g.y + 2 * Y_STEP)), mix.inputs["Fac"])
+        _link_or_empty(nt, cycles, mix.inputs[1])
+        _link_or_empty(nt, eevee, mix.inputs[2])
+        shader = mix.outputs[0]
     gout = nt.nodes.new("NodeGroupOutput")
     gout.location = (x + 3 * X_STEP, 0.0)
     if shader is not None:
         nt.links.new(shader, gout.inputs["BSDF"])
     return tree
+
+
+def _added(nt, a, b, location):
+    """The sum of the shader outputs ``a`` and ``b`` (either None: the other)."""
+    if a is None or b is None:
+        return a if b is None else b
+    add = _new_node(nt, "ShaderNodeAddShader", {}, location)
+    nt.links.new(a, add.inputs[0])
+    nt.links.new(b, add.inputs[1])
+    return add.outputs[0]
+
+
+def _link_or_empty(nt, shader, socket) -> None:
+    """``shader`` into ``socket``; nothing (no light) where it is None."""
+    if shader is not None:
+        nt.links.new(shader, socket)
+
+
+def _eevee_switch(nt, location):
+    """1 in EEVEE, 0 in Cycles (with or without OSL): the Shader to RGB of a white emission, which
+    EEVEE evaluates and Cycles drops, reading the default value of the socket it is linked to
+    instead (so that socket's default must be 0; ``bench/eevee_engine_switch.md``, measured in
+    every supported Blender; the Light Path node cannot tell the engines apart)."""
+    emission = _new_node(nt, "ShaderNodeEmission", {}, location, "white")
+    emission.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    emission.inputs["Strength"].default_value = 1.0
+    to_rgb = _new_node(nt, "ShaderNodeShaderToRGB", {}, (location[0] + X_STEP, location[1]), "1 in EEVEE, 0 in Cycles")
+    nt.links.new(emission.outputs[0], to_rgb.inputs[0])
+    return to_rgb.outputs["Color"]
 
 
 # Cycles' refracting BSDF nodes take 1 / IOR on a back face (svm_node_closure_bsdf: ``eta =

@@ -16,9 +16,13 @@ from .nodes.plan import MATH_IN, Out, Plan
 
 
 # ---------------------------------------------------------------- staged shaders
-def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = None) -> np.ndarray:
+def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = None,
+                    target: str = "cycles") -> np.ndarray:
     """f(wi, wo) |wo.z| of the staged shader (numpy, ``dtype``) for directions in the shading
-    frame (N, 3): what the emitted shaders compute, to hold them to the traced model."""
+    frame (N, 3): what the emitted shaders compute, to hold them to the traced model. ``target``
+    "eevee": each anisotropic lobe as the isotropic stand-ins the node group draws in EEVEE
+    (``Staged.stand_ins``), the closures as EEVEE's Glossy BSDF would read them otherwise being
+    EEVEE's business."""
     wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
     wo = np.asarray(wo, dtype=np.float64).reshape(-1, 3)
     wi = np.broadcast_to(wi, wo.shape)
@@ -30,7 +34,11 @@ def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = 
     vals.update(st.params)
     if values:
         vals.update(values)
-    outs = [x for c in st.closures for x in (*c.weight, *c.args.values())]
+    if target not in ("cycles", "eevee"):
+        raise ValueError(f"target is 'cycles' or 'eevee', got {target!r}")
+    closures = st.closures if target == "cycles" else [
+        s for k, c in enumerate(st.closures) for s in st.stand_ins.get(k, [c])]
+    outs = [x for c in closures for x in (*c.weight, *c.args.values())]
     with np.errstate(all="ignore"):
         got = st.tracer.evaluate(outs, ops, vals)
     env = dict(zip(map(id, outs), got))
@@ -41,7 +49,7 @@ def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = 
     def v(x):
         return env[id(x)] if isinstance(x, Expr) else dtype(x)
 
-    for c in st.closures:
+    for c in closures:
         with np.errstate(all="ignore"):
             f = c.kind.cos_of_args(ops, {k: v(x) for k, x in c.args.items()}, wi_o, wo_o)
         w = np.stack([np.broadcast_to(v(x), (wo.shape[0],)) for x in c.weight], -1)

@@ -14,7 +14,7 @@ weight ``e * scale``.
 from __future__ import annotations
 
 from ..models.rgb import RGB
-from . import backscatter, diffuse, reflection, transmission
+from . import backscatter, diffuse, reflection, tilted, transmission
 from .bsdf_node import BsdfNode
 from .kind import GD_FLOOR, KINDS, SHADING_FRAME, SIDES, LobeKind, osl_frame
 
@@ -45,7 +45,7 @@ def eval_lobes_cos(ops, lobes, wi, wo):
     return total
 
 
-for _module in (reflection, diffuse, backscatter, transmission):
+for _module in (reflection, diffuse, backscatter, transmission, tilted):
     register(_module.KIND)
 
 __all__ = ["LobeKind", "BsdfNode", "KINDS", "SIDES", "GD_FLOOR", "SHADING_FRAME", "osl_frame", "register", "unregister", "kind",

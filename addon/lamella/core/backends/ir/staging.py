@@ -39,7 +39,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ... import luts
+from ... import lobe_kinds, luts
+from ...lobe_kinds import isotropic_fit
 from ...stack import Stack
 from ..numpy_ops import NumpyOps
 from . import lobe_budget
@@ -54,6 +55,8 @@ N_PHI = 16  # nodes along the azimuth (shading frame only), periodic
 MU_MIN = 1e-4  # the grazing node is evaluated just above the horizon (the model's limit there)
 VIEW_INPUTS = ("wi_x", "wi_y", "wi_z")
 ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure (every emitter)
+STAND_INS = 3  # EEVEE's isotropic lobes per anisotropic one (bench/eevee_anisotropy_fit.md: K = 3 measured best)
+ANISOTROPY_MIN = 1e-3  # a lobe whose axes differ by less (1 - min / max) at every view is drawn round anyway
 
 
 # ---------------------------------------------------------------- the grid
@@ -164,6 +167,7 @@ class Staged:
     traced_params: tuple = ()  # the live parameters some traced arithmetic of the model reads
     ids: dict = field(default_factory=dict)  # every parameter's ``ParamId`` (what it is), by name
     normals: tuple = ()  # the layers whose own normal (an input) their closures take (``Closure.normal``)
+    stand_ins: dict = field(default_factory=dict)  # closure index -> its EEVEE stand-ins (``stage``'s ``stand_ins``)
 
     @property
     def live_sockets(self) -> tuple:
@@ -182,7 +186,8 @@ class Staged:
         parameters' values: the staged graph's shape, the closures, the table's size and the
         parameters (the sockets)."""
         t = self.tracer
-        outs = [x for c in self.closures for x in (*c.weight, *c.args.values())]
+        every = [*self.closures, *(c for k in sorted(self.stand_ins) for c in self.stand_ins[k])]
+        outs = [x for c in every for x in (*c.weight, *c.args.values())]
         names: dict[int, int] = {}
         parts = [self.frame, str(self.table.shape), ",".join(self.live), ",".join(self.interface),
                  ",".join(self.normals), ",".join(str(c.framed(self.normals)) for c in self.closures),
@@ -192,7 +197,8 @@ class Staged:
             parts.append(e.op + "(" + ",".join(
                 f"#{names[id(a)]}" if isinstance(a, Expr) else repr(a) for a in e.args) + ")")
         parts += [c.kind.name + ":" + ",".join(f"#{names[id(x)]}" if isinstance(x, Expr) else repr(x)
-                                                for x in (*c.weight, *c.args.values())) for c in self.closures]
+                                                for x in (*c.weight, *c.args.values())) for c in every]
+        parts.append("stand-ins:" + ",".join(f"{k}x{len(v)}" for k, v in sorted(self.stand_ins.items())))
         return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
@@ -249,7 +255,7 @@ class _Columns:
 
 
 def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None,
-          traced=None, live_axes: int = 0, partition=None) -> Staged:
+          traced=None, live_axes: int = 0, partition=None, stand_ins: int = STAND_INS) -> Staged:
     """Stage ``stack`` (a Stack, dict or JSON) under ``model`` for a material whose parameters in
     ``live`` are linked (they stay shader inputs); every other parameter takes the stack's value.
     ``budget``: the lobe budget (``lobe_budget.BUDGETS``: "auto", "all" or 1 to 8 closures);
@@ -260,8 +266,11 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     of staying traced (0: every value a live parameter reaches stays traced). Only for a table with
     one azimuth node; otherwise the live part stays traced. ``partition``: the model's lobes grouped
     into closures as a previous staging of this structure grouped them (``Staged.merged``), kept
-    instead of merging to ``budget`` again (a slider dragged: ``lobe_budget.merge``)."""
+    instead of merging to ``budget`` again (a slider dragged: ``lobe_budget.merge``).
+    ``stand_ins``: how many isotropic lobes stand in for each baked anisotropic one where the
+    renderer draws every lobe round (EEVEE; ``Staged.stand_ins``; 0: none)."""
     stack = Stack.coerce(stack)
+    grid_given = grid is not None
     budget = lobe_budget.parse(budget)
     if traced is None or traced.stack != stack:
         traced = trace_closures(stack, model, live)  # ``traced``: the caller's trace of this stack and model
@@ -341,6 +350,25 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     moving_outs = [x for g in live_groups for m in g.members for x in (
         *(source[m.index].lobe.weight if len(g.members) > 1 else ()),
         *source[m.index].weight, *source[m.index].args.values())] + live_covers
+    # EEVEE draws every lobe round: a baked anisotropic lobe gets ``stand_ins`` isotropic lobes
+    # about normals tilted along its long axis (``lobe_kinds.isotropic_fit``), which the node group
+    # draws in EEVEE only. They depend on the view's azimuth about the lobe's axes: where nothing
+    # else the table holds does (``_azimuth_free``), the table gets ``N_PHI`` azimuth nodes for them
+    # alone, the other columns the same at each (the shaders read those along the elevation only).
+    # A grid the caller fixed at one azimuth, or tables over linked parameters, keep the round lobe.
+    baked_groups = [grp for grp in groups if not grp.lobe.live]
+    anisotropic = [k for k, grp in enumerate(baked_groups) if stand_ins and _anisotropic(grp.lobe)]
+    if anisotropic and grid.n_phi == 1:
+        if grid_given or axes or frame == "view":
+            anisotropic = []
+        else:
+            grid = ViewGrid(grid.n_mu, N_PHI)
+
+    def on_table_grid(values):
+        """Values over the grid the lobes were evaluated on, over the table's (the same, or
+        repeated along the azimuth)."""
+        return np.broadcast_to(np.reshape(values, (grid.n_mu, -1)), (grid.n_mu, grid.n_phi))
+
     cols = _Columns((grid.n_mu, grid.n_phi))
 
     t2 = Tracer()
@@ -351,17 +379,19 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     cc, pp = grid.coords(t2, wi2)
 
     def read(values_on_grid, key=None, fold=False):
-        k = cols.add(np.reshape(values_on_grid, (grid.n_mu, grid.n_phi)), key, fold)
+        k = cols.add(on_table_grid(values_on_grid), key, fold)
         return k if isinstance(k, float) else t2.node("mtab", str(k), cc, pp)
 
     reaches_param = t.reached_by()
 
     closures = []
     merged = []
-    baked_groups = [grp for grp in groups if not grp.lobe.live]
     for grp in baked_groups:
         merged.append([s.index for s in grp.members])
         closures.append(_baked_closure(t2, wi2, grp.lobe, read, np.asarray(dirs), reaches_param))
+    table_dirs = grid.directions().reshape(-1, 3)
+    eevee = {k: _stand_in_closures(t2, baked_groups[k].lobe, read, table_dirs, stand_ins,
+                                   lambda v: on_table_grid(v).reshape(-1)) for k in anisotropic}
 
     # the live lobes: their graph rebuilt in t2; view-only values they read come from the table
     env: dict[int, object] = {}
@@ -426,7 +456,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
-                tuple(sorted(traced_params)), dict(t.ids), normals)
+                tuple(sorted(traced_params)), dict(t.ids), normals,
+                {k: [replace(c, normal=closures[k].normal, tilts=closures[k].tilts) for c in v] for k, v in eevee.items()})
     return st
 
 
@@ -640,6 +671,46 @@ def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column
         args.update(nx=args["nx"] * inv, ny=args["ny"] * inv, nz=args["nz"] * inv)
     weight = tuple(read(w, f"weight{ch}") for ch, w in enumerate(lobe.closure_weight(dirs)))
     return Closure(lobe.lobe, kind, weight, args, lobe.label)
+
+
+def _anisotropic(lobe: "lobe_budget.LobeSamples") -> bool:
+    """A reflection lobe whose axes differ by more than ``ANISOTROPY_MIN`` at some grid view."""
+    if lobe.kind.name != "reflection" or lobe.is_delta:
+        return False
+    ax, ay = (np.asarray(lobe.args[k], dtype=np.float64) for k in ("ax", "ay"))
+    top = np.maximum(np.maximum(ax, ay), 1e-30)
+    return bool(np.any(1.0 - np.minimum(ax, ay) / top > ANISOTROPY_MIN))
+
+
+def _stand_in_closures(t2: Tracer, lobe: "lobe_budget.LobeSamples", read_column, dirs, k: int, expand) -> list:
+    """The ``k`` isotropic stand-ins of the baked anisotropic reflection ``lobe``
+    (``isotropic_fit.fit`` at every grid view, in the lobe's axes): closures of the kind
+    ``tilted_reflection``. The table holds the lobe's energy and long axis (shading frame) once,
+    and each stand-in's roughness, tilt (signed, toward the long axis) and weight per unit of
+    energy; its normal is (sin t L, cos t), unit at every interpolated view. ``dirs``: the table's
+    views; ``expand``: the lobe's values (over the views it was evaluated on) over those."""
+    ax, ay, cs, sn = (expand(np.broadcast_to(np.asarray(lobe.args[n], dtype=np.float64), lobe.energy.shape[:1]))
+                      for n in ("ax", "ay", "cos", "sin"))
+    energy = np.stack([expand(lobe.energy[:, ch]) for ch in range(3)], -1)
+    wl = np.stack([cs * dirs[:, 0] + sn * dirs[:, 1], cs * dirs[:, 1] - sn * dirs[:, 0], dirs[:, 2]], -1)
+    fit = isotropic_fit.fit(ax, ay, wl, k)
+
+    def read(values, field):
+        return read_column(values, ("stand-in", id(lobe), field))
+
+    lx, ly = fit.long_axis[:, 0], fit.long_axis[:, 1]
+    long_x, long_y = read(cs * lx - sn * ly, "long_x"), read(sn * lx + cs * ly, "long_y")
+    energy = [read(energy[:, ch], f"energy{ch}") for ch in range(3)]
+    kind = lobe_kinds.kind("tilted_reflection")
+    out = []
+    for j in range(k):
+        tilt = read(fit.tilt[:, j], f"tilt{j}")
+        scale = read(fit.scale[:, j], f"scale{j}")
+        s = t2.sin(tilt)
+        args = {"alpha": read(fit.alpha[:, j], f"alpha{j}"), "nx": s * long_x, "ny": s * long_y, "nz": t2.cos(tilt)}
+        out.append(Closure(lobe.lobe, kind, tuple(e * scale for e in energy), args,
+                           f"{lobe.label}: EEVEE stand-in {j + 1} of {k}"))
+    return out
 
 
 def _merged_live_closure(t2: Tracer, wi2, members: list, rebuild, label: str) -> Closure:

@@ -29,7 +29,7 @@ from ... import luts
 from ..ir.closures import trace_closures
 from ...param_id import normal_socket, split_normals
 from ..ir.live_axes import MAX_AXES
-from ..ir.staging import stage
+from ..ir.staging import STAND_INS, stage
 from ..ir.trace import Expr, Tracer
 from ..ir.traced_ops import OPS
 from .plan import (
@@ -228,9 +228,19 @@ class _Lowering:
         hit = self._coords[key] = (us, (v0, v1), f, g, width, {})
         return hit
 
+    def _flat(self, group: int) -> bool:
+        """Whether the texel group (three columns) is the same at every azimuth node: read at the
+        first, along the view only (a table made over azimuths for some columns, the EEVEE
+        stand-ins', reads the others as a table of one azimuth would)."""
+        part = self.table[:, :, 3 * group:3 * group + 3]
+        return part.shape[1] == 1 or bool(np.array_equal(part, np.broadcast_to(part[:, :1], part.shape)))
+
     def mtab(self, col: int, c, p):
         us, vs, f, g, width, reads = self._mcoords(c, p)
         group, channel = divmod(col, 3)
+        if g is not None and self._flat(group):
+            us, g = [0.5 / width], None
+            reads = reads.setdefault("flat", {})
         sep = reads.get(group)
         if sep is None:
             blended = []
@@ -355,7 +365,7 @@ _FOLD_MATH = {
 
 
 def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool = True,
-              image: str = TABLE_IMAGE, grid=None, staged_ir=None, live_axes="auto") -> Plan:
+              image: str = TABLE_IMAGE, grid=None, staged_ir=None, live_axes="auto", stand_ins: int = STAND_INS) -> Plan:
     """The node plan of ``stack`` under ``model``: in Cycles the closures of the OSL shader,
     anisotropy included; EEVEE renders the same nodes with its own limits (``LobeKind.bsdf``).
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked,
@@ -366,11 +376,13 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
     ``live_axes``: what of the model the linked parameters reach is read from tables over (view,
     parameters) (``staging.stage``'s ``live_axes``); "auto": none, unless the traced part is more
     than Cycles' SVM surely holds (``live_values`` above ``SVM_UNSURE``), then up to
-    ``live_axes.MAX_AXES`` parameters per table."""
+    ``live_axes.MAX_AXES`` parameters per table. ``stand_ins``: the isotropic lobes EEVEE draws for
+    each anisotropic one (``staging.stage``; 0: EEVEE draws the anisotropic lobe round)."""
     if staged and staged_ir is not None and live_axes in ("auto", staged_ir.live_axes):
         st = staged_ir
     elif staged:
-        st = stage(stack, model, live, budget, grid, live_axes=0 if live_axes == "auto" else live_axes)
+        st = stage(stack, model, live, budget, grid, live_axes=0 if live_axes == "auto" else live_axes,
+                   stand_ins=stand_ins)
     else:
         st = None
     if st is not None and live_axes == "auto" and st.live and st.live_axes == 0:
@@ -384,7 +396,7 @@ def emit_plan(stack, model: str = "auto", live=(), budget="auto", staged: bool =
                 return plan
         if _TOO_LARGE[key]:
             st = stage(st.stack, st.model, (*st.live, *(normal_socket(n) for n in st.normals)), budget, grid,
-                       live_axes=MAX_AXES)
+                       live_axes=MAX_AXES, stand_ins=stand_ins)
     return _plan(stack, model, st, image, live)
 
 
@@ -405,19 +417,25 @@ def _plan(stack, model: str, st, image: str, live=()) -> Plan:
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         ids = dict(traced.tracer.ids)
         t, closures, wi, frame, table = traced.tracer, traced.covered, traced.wi, "shading", None
-    specs = [(c, c.weight, c.kind.node(t, c.args, wi)) for c in closures]
+    # a closure with EEVEE stand-ins (``Staged.stand_ins``) is drawn in Cycles, its stand-ins in EEVEE
+    stand_ins = st.stand_ins if st is not None else {}
+    targeted = []
+    for k, c in enumerate(closures):
+        targeted.append((c, "cycles" if k in stand_ins else "all"))
+        targeted += [(s, "eevee") for s in stand_ins.get(k, ())]
+    specs = [(c, c.weight, c.kind.node(t, c.args, wi), target) for c, target in targeted]
     exprs = []
-    for _, color, b in specs:
+    for _, color, b, _ in specs:
         exprs += [*color, *b.floats.values()]
         exprs += [x for vec in b.vectors.values() if vec is not None for x in vec]
     low = _Lowering(t, table, image, st.axis_tables if st is not None else ())
     low.lower(exprs)
     bsdfs = []
-    for c, color, b in specs:
+    for c, color, b, target in specs:
         bsdfs.append(Bsdf(c.kind.name, b.bl_idname, dict(b.props), tuple(low.ref(c) for c in color),
                           {s: low.ref(x) for s, x in b.floats.items()},
                           {s: (None if vec is None else tuple(low.ref(x) for x in vec)) for s, vec in b.vectors.items()},
-                          c.label, c.framed(normals)))
+                          c.label, c.framed(normals), target))
     sections = {"setup": "incident direction", "lobes": "lobes", "closures": "closure weights",
                 "base": f"base: {stack.base.type}", "table": "the material table", "live": "linked parameters"}
     for i, c in enumerate(stack.coats):

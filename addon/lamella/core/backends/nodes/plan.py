@@ -52,6 +52,10 @@ class Bsdf:
     vectors: dict
     label: str
     frame: tuple | None = None  # the layers' tilts its vectors' frame takes (``layer_normals.frame_key``; None: shading)
+    target: str = "all"  # the renderers that draw it: "all", "cycles" or "eevee" (``TARGETS``)
+
+
+TARGETS = ("all", "cycles", "eevee")  # an anisotropic lobe is drawn in Cycles, its round stand-ins in EEVEE
 
 
 @dataclass

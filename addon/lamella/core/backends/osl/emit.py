@@ -61,6 +61,23 @@ def _literal(x: float) -> str:
 IDENTIFIER_MAX = 64  # characters of a shader name derived from a stack's name
 
 
+def _read_columns(t, outputs) -> list[int]:
+    """The columns of the staged table the shader's graph reads (the node group's EEVEE stand-ins
+    have columns of their own, ``staging.Staged.stand_ins``)."""
+    return sorted({int(e.args[0]) for e in t.live_nodes(outputs) if e.op == "mtab"})
+
+
+def _shader_table(t, outputs, table: np.ndarray) -> np.ndarray:
+    """The part of the staged ``table`` the shader reads: its columns (``_read_columns``), over
+    one azimuth node where none of them varies with the azimuth (a table made over azimuths for
+    the stand-ins alone)."""
+    cols = _read_columns(t, outputs)
+    part = table[:, :, cols] if cols else table[:, :, :1]
+    if part.shape[1] > 1 and np.array_equal(part, np.broadcast_to(part[:, :1], part.shape)):
+        part = part[:, :1]
+    return np.ascontiguousarray(part)
+
+
 def _identifier(name: str) -> str:
     """An OSL identifier from free text (a stack's name, any language): ASCII letters, digits and
     underscores, starting with a letter, at most ``IDENTIFIER_MAX`` characters. Text that had to
@@ -81,6 +98,7 @@ class _Printer:
         self.lines: list[str] = []
         self._packed: dict[tuple, str] = {}
         self.table_shape = (0, 0, 0)
+        self.table_columns: dict[int, int] = {}  # a column of the staged table -> its column in MT
         self.files: set[str] = set()  # the EXR tables (in lut_dir) the printed code reads
 
     def ref(self, a) -> str:
@@ -88,11 +106,27 @@ class _Printer:
             return self.names[id(a)]
         return _literal(a)
 
+    def _reachable(self, outputs) -> list:
+        """The live nodes of ``outputs``; with a table of one azimuth node, without the azimuth
+        coordinate the table reads are given (they read along the elevation alone)."""
+        nodes = self.t.live_nodes(outputs)
+        if self.table_shape[1] != 1:
+            return nodes
+        seen: set[int] = set()
+        stack = [o for o in outputs if isinstance(o, Expr)]
+        while stack:
+            e = stack.pop()
+            if id(e) in seen:
+                continue
+            seen.add(id(e))
+            stack.extend(a for a in (e.args[:2] if e.op == "mtab" else e.args) if isinstance(a, Expr))
+        return [e for e in nodes if id(e) in seen]
+
     def emit(self, outputs, sections: dict[str, str] | None = None) -> None:
         """One statement per live node, each temporary named after the part of the model that
         made it (``coat0_12``, ``base_40``), with a comment line where that part begins."""
         scope = None
-        for n, e in enumerate(self.t.live_nodes(outputs)):
+        for n, e in enumerate(self._reachable(outputs)):
             if e.op == "param":
                 self.names[id(e)] = _identifier(e.args[0])
                 continue
@@ -115,7 +149,7 @@ class _Printer:
                     rhs = self._lut(a[0], [self.ref(c) for c in a[1:]], a[1:])
                     self.files.add(luts.SPECS[a[0]].file)
             elif e.op == "mtab":
-                rhs = self._mtab(int(a[0]), self.ref(a[1]), self.ref(a[2]))
+                rhs = self._mtab(int(a[0]), self.ref(a[1]), self.ref(a[2]) if self.table_shape[1] > 1 else "")
             elif e.op == "atab":
                 raise NotImplementedError("tables over linked parameters (staging's live_axes) are the node "
                                           "group's; an OSL shader traces what its linked inputs reach")
@@ -151,6 +185,7 @@ class _Printer:
                     f"    int {var}_d = {var}_c + {n_phi * cols};",
                 ]
         f = f"{var}_f"
+        col = self.table_columns.get(col, col)
         lerp = lambda a, b: f"(MT[{a} + {col}] + (MT[{b} + {col}] - MT[{a} + {col}]) * {f})"  # noqa: E731
         if n_phi == 1:
             return lerp(f"{var}_a", f"{var}_b")
@@ -341,7 +376,9 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     outputs = [x for c in closures for x in (*c.weight, *c.args.values())]
     p = _Printer(t)
     if table is not None:
+        table = _shader_table(t, outputs, table)
         p.table_shape = table.shape
+        p.table_columns = {k: j for j, k in enumerate(_read_columns(t, outputs))}
     sections = {"setup": "incident direction", "lobes": "lobes (energies, roughness, axes)",
                 "closures": "closure weights: energy x the lobe kind's normaliser (1 / GD for GGX)",
                 "base": f"base: {stack.base.type} and the adding of the stack above it",
