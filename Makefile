@@ -8,7 +8,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.lamella-installed
 
-.PHONY: setup demo test package exports test-blender-versions bench-accuracy bench-holdout bench-images bench-recompile bench-nodes references references-multiple references-pending image-references luts clean
+.PHONY: setup demo test test-long package exports test-blender-versions bench-accuracy bench-holdout bench-images bench-recompile bench-nodes references references-multiple references-pending image-references luts clean
 
 setup: $(STAMP)
 
@@ -31,6 +31,10 @@ demo: setup
 
 test: setup
 	$(VENV)/bin/pytest -q -n 2 --dist loadgroup
+
+# The long checks `make test` leaves out (marked slow: the benches run end to end).
+test-long: setup
+	$(VENV)/bin/pytest -q -n 2 --dist loadgroup -m slow
 
 # The extension zip, built and validated by Blender's own extension tool (in the bpy wheel).
 package: setup

@@ -36,7 +36,7 @@ def test_a_preset_with_procedural_inputs_links_them_and_renders_in_every_engine(
     assert {"worn_lacquer_on_wood", "dust_on_upward_faces"} <= set(MASKED)
     for pid in MASKED:
         preset = presets.find(pid)
-        sc, sphere = engine_scene(engine, res=32, spp=8)
+        sc, sphere = engine_scene(engine, res=24, spp=4)
         mat = new_material(sphere, f"{pid}_{engine}")
         addon.ops.lamella.preset_apply(material=mat.name, preset=pid)
         assert mat.lamella.status == "OK", mat.lamella.status_message

@@ -10,7 +10,8 @@ import pytest
 pytest.importorskip("bpy")
 from lamella_dev.bench import pareto  # noqa: E402
 
-pytestmark = pytest.mark.xdist_group("bench_pareto")  # one worker computes the shared fixture
+# one worker computes the shared fixture; a minute and a half of renders: `make test-long`
+pytestmark = [pytest.mark.xdist_group("bench_pareto"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="session")  # once, however xdist interleaves modules

@@ -106,10 +106,11 @@ def _tilted_floor(ops, wi, wo, w, top, energy, f_ref, theta: float) -> tuple[flo
     return best
 
 
-def measure() -> list[dict]:
+def measure(names=None) -> list[dict]:
+    """The rows of ``names`` (default: every case of ``cases``)."""
     ops = NumpyOps(np.float64)
     rows = []
-    for name in cases():
+    for name in names or cases():
         stack = suite.load(name)
         ref = load_reference(name, REFERENCE_DIR_MULTIPLE)
         for i, deg in enumerate(ref["wi_degrees"]):
