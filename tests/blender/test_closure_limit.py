@@ -65,6 +65,7 @@ def test_a_stack_with_more_lobes_than_closures_renders_its_energy():
     assert np.abs(got - want).max() < 0.02 * want.max(), (got, want)
 
 
+@pytest.mark.slow  # one 8-coat live OSL shader: 45 s of JIT; `make test-long`
 def test_a_textured_stack_with_more_live_lobes_than_closures_renders_its_energy():
     """Lobes that read a linked input merge too (traced, with each other) as far as the cap
     requires: eight coats with media and textures on two coat roughnesses and the base colour (27

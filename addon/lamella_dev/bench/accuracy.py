@@ -194,11 +194,22 @@ def reference_by_symmetry(ref: dict, i: int, stack, side: str = "") -> tuple[np.
     return symmetrized(mean, err, _orbits(suite.incident(deg), wo, kind))
 
 
-def evaluate_case(name: str, ref: dict, models=MODELS, stack=None) -> list[dict]:
+def evaluate_case(name: str, ref: dict, models=MODELS, stack=None, cache: dict | None = None) -> list[dict]:
     """Rows of (model, wi, relative L1, albedo error, noise floor) for one suite case (or for
     ``stack`` under that name). An isotropic stack's reference is first averaged over the
-    directions it cannot tell apart (``reference_by_symmetry``)."""
+    directions it cannot tell apart (``reference_by_symmetry``). ``cache``: a dict the caller
+    passes again for another reference of the same stack (the two yardsticks share their
+    directions): the models' values at the same directions are computed once."""
     stack = suite.load(name) if stack is None else stack
+    cache = {} if cache is None else cache
+
+    def model_values(m, deg, wi, wo, side="reflected"):
+        key = (m, float(deg), side, wo.shape, wo.tobytes())
+        if key not in cache:
+            cache[key] = (api.evaluate(stack, wi, wo, m, deltas=False),  # deltas: compared through the albedo
+                          api.albedo(stack, wi, m, side=side)[0])
+        return cache[key]
+
     rows = []
     for i, deg in enumerate(ref["wi_degrees"]):
         wi = suite.incident(float(deg))
@@ -208,8 +219,7 @@ def evaluate_case(name: str, ref: dict, models=MODELS, stack=None) -> list[dict]
         noise = float(np.mean((err * weight[:, None]).sum(0) / np.maximum((f_ref * weight[:, None]).sum(0), 1e-30)))
         for m in models:
             try:
-                f = api.evaluate(stack, wi, wo, m, deltas=False)  # deltas: compared through the albedo
-                a = api.albedo(stack, wi, m)[0]
+                f, a = model_values(m, deg, wi, wo)
             except UnsupportedStack as e:
                 rows.append({"case": name, "model": m, "wi": float(deg), "unsupported": str(e)})
                 continue
@@ -217,8 +227,7 @@ def evaluate_case(name: str, ref: dict, models=MODELS, stack=None) -> list[dict]
                    "rel_l1": relative_l1(f, f_ref, weight), "albedo_err": albedo_error(a, a_ref),
                    "ref_noise": noise, "albedo": a.tolist(), "albedo_ref": a_ref.tolist()}
             if f"wo_t_{i}" in ref:  # a dielectric base: the transmitted side too
-                ft = api.evaluate(stack, wi, ref[f"wo_t_{i}"], m, deltas=False)
-                at = api.albedo(stack, wi, m, side="transmitted")[0]
+                ft, at = model_values(m, deg, wi, ref[f"wo_t_{i}"], "transmitted")
                 row.update({"rel_l1_t": relative_l1(ft, reference_by_symmetry(ref, i, stack, "_t")[0],
                                                     ref[f"weight_t_{i}"]),
                             "albedo_err_t": albedo_error(at, ref[f"albedo_t_{i}"])})
@@ -235,16 +244,15 @@ def run(ref_dir: Path = REFERENCE_DIR, out_dir: Path = BENCH_DIR, models=MODELS,
     ``rows_multiple``: multiple-scattering interfaces, where stored), then the cases whose BRDF
     reference is stored in ``pending_dir`` but which are not in the suite yet (waiting for their
     image references), marked ``pending``."""
-    rows = []
+    rows, rows_multiple = [], []
     for name in suite.names():
         if not (ref_dir / f"{name}.npz").exists():
             raise FileNotFoundError(f"no stored reference for {name}: run `lamella references --cases {name}`")
-        rows.extend(evaluate_case(name, load_reference(name, ref_dir), models))
-    # the energy-conserving yardstick, for the cases whose reference is stored
-    rows_multiple = []
-    for name in suite.names():
+        cache: dict = {}  # the models' values, shared by the two yardsticks of this case
+        rows.extend(evaluate_case(name, load_reference(name, ref_dir), models, cache=cache))
+        # the energy-conserving yardstick, for the cases whose reference is stored
         if (multiple_dir / f"{name}.npz").exists():
-            rows_multiple.extend(evaluate_case(name, load_reference(name, multiple_dir), models))
+            rows_multiple.extend(evaluate_case(name, load_reference(name, multiple_dir), models, cache=cache))
     for path in sorted(pending_dir.glob("*.npz")) if pending_dir.exists() else []:
         if path.stem not in suite.names():
             rows.extend({**r, "pending": True} for r in evaluate_case(path.stem, load_reference(path.stem, pending_dir),
