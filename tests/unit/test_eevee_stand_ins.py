@@ -129,3 +129,21 @@ def test_the_tilted_closure_is_the_fit_s():
     got = kind.cos_of_args(NumpyOps(np.float64), {"alpha": alpha, "nx": n[:, 0], "ny": n[:, 1], "nz": n[:, 2]},
                            tuple(wi.T), tuple(wo.T))
     np.testing.assert_allclose(got, isotropic_fit.tilted_cos(wi, wo, alpha, n), rtol=1e-12, atol=1e-14)
+
+
+def test_the_stand_ins_follow_a_linked_coverage_mask():
+    """A partly covering coat over a brushed metal, its coverage linked: the base's anisotropic lobe
+    is in both parts (with and without the coat), each part's stand-ins weighted by its cover like
+    the lobe itself, so EEVEE's energy follows Cycles' at every mask value."""
+    d = suite.load("coat_over_brushed").to_dict()
+    d["format"] = 2
+    d["layers"][0]["coverage"] = 0.5
+    st = staging.stage(d, live=("coat0_coverage",))
+    assert len(st.stand_ins) >= 2
+    wo = _wo()
+    for mask in (0.0, 0.3, 1.0):
+        for th, ph in VIEWS[:3]:
+            wi = suite.incident(th, ph)
+            cycles = evaluate_staged(st, wi, wo, np.float64, values={"coat0_coverage": mask})
+            eevee = evaluate_staged(st, wi, wo, np.float64, values={"coat0_coverage": mask}, target="eevee")
+            assert abs(eevee.mean() / cycles.mean() - 1.0) < 0.04, (mask, th, ph)

@@ -448,16 +448,17 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         else:
             closures.append(_merged_live_closure(t2, wi2, members, rebuild, grp.lobe.label))
     framed = []
-    for c, grp in zip(closures, baked_groups + live_groups):
+    for k, (c, grp) in enumerate(zip(closures, baked_groups + live_groups)):
         src = source[grp.members[0].index]
-        c = _covered(c, rebuild(src.cover))
-        framed.append(replace(c, normal=src.normal, tilts=src.tilts))
+        cover = rebuild(src.cover)
+        framed.append(replace(_covered(c, cover), normal=src.normal, tilts=src.tilts))
+        if k in eevee:  # the stand-ins take their lobe's cover and frame
+            eevee[k] = [replace(_covered(s, cover), normal=src.normal, tilts=src.tilts) for s in eevee[k]]
     closures = framed
     st = Staged(stack, traced.model, frame, grid, cols.table(), t2, wi2, closures, live,
                 {k: float(t.defaults[k]) for k in live}, len(traced.closures), budget, merged, (cc, pp),
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
-                tuple(sorted(traced_params)), dict(t.ids), normals,
-                {k: [replace(c, normal=closures[k].normal, tilts=closures[k].tilts) for c in v] for k, v in eevee.items()})
+                tuple(sorted(traced_params)), dict(t.ids), normals, eevee)
     return st
 
 
