@@ -77,6 +77,9 @@ def studio_scene():
     sc.cycles.use_denoising = False
     sc.cycles.use_adaptive_sampling = False
     sc.view_settings.view_transform = "Standard"
+    # EEVEE on this machine's software OpenGL: every render after the first takes half a minute with
+    # shadows on (lamella_dev.render.use_eevee); the spheres cast none on each other anyway
+    sc.eevee.use_shadows = False
     sc.render.resolution_x = sc.render.resolution_y = RES
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     sc.collection.objects.link(cam)
