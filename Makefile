@@ -62,6 +62,7 @@ ADDON_TESTS := tests/blender/test_addon_api.py tests/blender/test_addon_operator
 	tests/blender/test_batch.py tests/blender/test_addon_nodes.py tests/blender/test_osl_tables.py \
 	tests/blender/test_stack_format_on_materials.py tests/blender/test_asset_library.py \
 	tests/blender/test_extension_contract.py tests/blender/test_face.py tests/blender/test_eevee_glass.py \
+	tests/blender/test_eevee_anisotropy.py \
 	tests/blender/test_addon_imports.py tests/blender/test_preset_exports.py
 test-blender-versions:
 	@for v in $(BLENDER_VERSIONS); do \

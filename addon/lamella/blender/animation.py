@@ -23,9 +23,9 @@ from contextlib import contextmanager
 
 from . import face
 
-try:  # Blender 4.4 and newer: an action's F-curves are in the channel bag of its slot
+try:  # Blender 5.0 and newer: the helper for the channel bag of the assigned slot (``_channels``)
     from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
-except ImportError:  # before 4.4 ``Action.fcurves``, the only path there
+except ImportError:  # 4.4 and 4.5 read the slot's channel bag themselves; before 4.4, ``Action.fcurves``
     animdata_get_channelbag_for_assigned_slot = None
 
 MIRROR_KEY = "lamella_mirrored"  # Lamella group: the input keys whose animation mirrors the panel's
@@ -34,15 +34,30 @@ _COAT_PATH = re.compile(r'^lamella\.coats\[(\d+)\](.*)$')
 _INPUT_PATH = re.compile(r'^nodes\["((?:[^"\\]|\\.)*)"\]\.inputs\[(\d+)\]\.default_value$')
 
 
+def _channels(ad):
+    """What holds the F-curves of ``ad``'s action for ``ad``'s own ID: from Blender 4.4 (layered
+    actions) the channelbag of its assigned slot; before, the action itself. (4.4 and 4.5 keep the
+    action's legacy ``fcurves``, but it lists the first slot's only: a material and its node tree
+    animated share one action, a slot each, so the node tree's curves are not there.)"""
+    if animdata_get_channelbag_for_assigned_slot is not None:
+        return animdata_get_channelbag_for_assigned_slot(ad)
+    slot, layers = getattr(ad, "action_slot", None), getattr(ad.action, "layers", None)
+    if slot is not None and layers:  # 4.4 and 4.5: layered actions, without that helper
+        for layer in layers:
+            for strip in layer.strips:
+                bag = strip.channelbag(slot)
+                if bag is not None:
+                    return bag
+        return None
+    return ad.action
+
+
 def fcurves(idblock) -> list:
     """The F-curves of ``idblock``'s action (its assigned slot's, from Blender 4.4's layered actions)."""
     ad = getattr(idblock, "animation_data", None)
     if ad is None or ad.action is None:
         return []
-    legacy = getattr(ad.action, "fcurves", None)  # Blender before 5.0
-    if legacy is not None:
-        return list(legacy)
-    bag = animdata_get_channelbag_for_assigned_slot(ad)
+    bag = _channels(ad)
     return list(bag.fcurves) if bag is not None else []
 
 
@@ -222,9 +237,4 @@ def mirror_panel(mat) -> bool:
 
 
 def _remove_fcurve(idblock, fc) -> None:
-    ad = idblock.animation_data
-    legacy = getattr(ad.action, "fcurves", None)
-    if legacy is not None:
-        legacy.remove(fc)
-        return
-    animdata_get_channelbag_for_assigned_slot(ad).fcurves.remove(fc)
+    _channels(idblock.animation_data).fcurves.remove(fc)
