@@ -674,6 +674,13 @@ def _baked_closure(t2: Tracer, wi2, lobe: "lobe_budget.LobeSamples", read_column
     return Closure(lobe.lobe, kind, weight, args, lobe.label)
 
 
+def same_at_every_azimuth(part: np.ndarray) -> bool:
+    """Whether ``part`` of a material table (n_mu, n_phi, columns) is the same at every azimuth
+    node: a table made over azimuths for the EEVEE stand-ins alone holds the other columns so, and
+    the emitters read those along the elevation only."""
+    return part.shape[1] == 1 or bool(np.array_equal(part, np.broadcast_to(part[:, :1], part.shape)))
+
+
 def _anisotropic(lobe: "lobe_budget.LobeSamples") -> bool:
     """A reflection lobe whose axes differ by more than ``ANISOTROPY_MIN`` at some grid view."""
     if lobe.kind.name != "reflection" or lobe.is_delta:

@@ -29,7 +29,7 @@ from ... import luts
 from ..ir.closures import trace_closures
 from ...param_id import normal_socket, split_normals
 from ..ir.live_axes import MAX_AXES
-from ..ir.staging import STAND_INS, stage
+from ..ir.staging import STAND_INS, same_at_every_azimuth, stage
 from ..ir.trace import Expr, Tracer
 from ..ir.traced_ops import OPS
 from .plan import (
@@ -232,8 +232,7 @@ class _Lowering:
         """Whether the texel group (three columns) is the same at every azimuth node: read at the
         first, along the view only (a table made over azimuths for some columns, the EEVEE
         stand-ins', reads the others as a table of one azimuth would)."""
-        part = self.table[:, :, 3 * group:3 * group + 3]
-        return part.shape[1] == 1 or bool(np.array_equal(part, np.broadcast_to(part[:, :1], part.shape)))
+        return same_at_every_azimuth(self.table[:, :, 3 * group:3 * group + 3])
 
     def mtab(self, col: int, c, p):
         us, vs, f, g, width, reads = self._mcoords(c, p)

@@ -31,7 +31,7 @@ from ..ir.closures import trace_closures
 from ...lobe_kinds.kind import FRAME_KEYS
 from ...param_id import normal_socket, split_normals
 from ..ir.sockets import by_param, sockets
-from ..ir.staging import stage
+from ..ir.staging import same_at_every_azimuth, stage
 from ..ir.trace import Expr, Tracer
 from ..ir.traced_ops import OPS
 
@@ -73,7 +73,7 @@ def _shader_table(t, outputs, table: np.ndarray) -> np.ndarray:
     the stand-ins alone)."""
     cols = _read_columns(t, outputs)
     part = table[:, :, cols] if cols else table[:, :, :1]
-    if part.shape[1] > 1 and np.array_equal(part, np.broadcast_to(part[:, :1], part.shape)):
+    if same_at_every_azimuth(part):
         part = part[:, :1]
     return np.ascontiguousarray(part)
 
