@@ -59,13 +59,12 @@ def isotropic_cases() -> list[str]:
 
 def _normal_dot_sun(res: int = RES) -> tuple[np.ndarray, np.ndarray]:
     """(N . sun, on-sphere mask) per pixel of the canonical orthographic view (top row first)."""
+    from .image_references import sphere_normals
+
     s = np.asarray(SUN_DIR, float)
     s /= np.linalg.norm(s)
-    u = (np.arange(res) + 0.5) / res * 2.2 - 1.1  # ortho_scale 2.2, camera looking along +y
-    x, z = np.meshgrid(u, -u)
-    r2 = x * x + z * z
-    n = np.stack([x, -np.sqrt(np.clip(1.0 - r2, 0.0, 1.0)), z], -1)
-    return n @ s, r2 < 0.97
+    n, on = sphere_normals(res)
+    return n @ s, on
 
 
 def gap(eevee: np.ndarray, cycles: np.ndarray) -> dict:

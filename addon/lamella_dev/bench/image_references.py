@@ -28,12 +28,20 @@ RES = 128
 SPP = 2048
 
 
-def sphere_pixels(res: int) -> np.ndarray:
-    """Pixels of the canonical orthographic view (``render.build_scene``: a unit sphere, ortho
-    scale 2.2; top row first) whose centre lies inside the sphere, away from its silhouette."""
+def sphere_normals(res: int) -> tuple[np.ndarray, np.ndarray]:
+    """The unit sphere's normal (world space, (res, res, 3)) at each pixel centre of the canonical
+    orthographic view (``render.build_scene``: ortho scale 2.2, the camera looking along +y, top
+    row first), and the pixels whose centre lies inside the sphere, away from its silhouette."""
     u = (np.arange(res) + 0.5) / res * 2.2 - 1.1
     x, z = np.meshgrid(u, -u)
-    return x * x + z * z < 0.97
+    r2 = x * x + z * z
+    return np.stack([x, -np.sqrt(np.clip(1.0 - r2, 0.0, 1.0)), z], -1), r2 < 0.97
+
+
+def sphere_pixels(res: int) -> np.ndarray:
+    """Pixels of the canonical orthographic view whose centre lies inside the sphere, away from its
+    silhouette (``sphere_normals``)."""
+    return sphere_normals(res)[1]
 
 
 def sphere_mask(rgba: np.ndarray) -> np.ndarray:

@@ -123,16 +123,15 @@ def _pixel_frame(res: int = RES):
     normal with the sun, the half vector's angle from the normal (degrees) and the sphere mask."""
     import numpy as np
 
+    from .image_references import sphere_normals
+
     s = np.asarray(SUN_DIR, float)
     s /= np.linalg.norm(s)
-    u = (np.arange(res) + 0.5) / res * 2.2 - 1.1  # ortho_scale 2.2, the camera looking along +y
-    x, z = np.meshgrid(u, -u)
-    r2 = x * x + z * z
-    n = np.stack([x, -np.sqrt(np.clip(1.0 - r2, 0.0, 1.0)), z], -1)
-    h = s + np.array([0.0, -1.0, 0.0])
+    n, on = sphere_normals(res)
+    h = s + np.array([0.0, -1.0, 0.0])  # the camera looks along +y
     h /= np.linalg.norm(h)
     theta_h = np.degrees(np.arccos(np.clip(n @ h, -1.0, 1.0)))
-    return n @ s, theta_h, r2 < 0.97
+    return n @ s, theta_h, on
 
 
 def binned_brdf(img, ref) -> dict:

@@ -77,11 +77,10 @@ def _exact(kind, t, n, metal, res: int) -> tuple[np.ndarray, np.ndarray]:
     the canonical orthographic camera, and the sphere mask."""
     from ..thin_film_spectral import film_reflectance_rgb
 
-    c = (np.arange(res) + 0.5) / res * 2.2 - 1.1
-    x, z = np.meshgrid(c, -c)
-    r2 = x * x + z * z
-    mask = r2 < 0.97  # inside the rim (its pixels mix the background)
-    cos = np.sqrt(np.clip(1.0 - r2, 0.0, 1.0))
+    from .image_references import sphere_normals
+
+    n_px, mask = sphere_normals(res)  # inside the rim (its pixels mix the background)
+    cos = -n_px[..., 1]  # the view, along -y toward the camera
     img = np.zeros((res, res, 3))
     kw = {"n_below": 1.5} if kind == "dielectric" else {"eta": metal["eta"], "k": metal["k"]}
     img[mask] = np.asarray(film_reflectance_rgb(cos[mask], 1.0, n, t, **kw)).reshape(-1, 3)
