@@ -235,3 +235,23 @@ def test_backward_mean_cosine_of_hg(g):
     for dtype in (np.float64, np.float32):
         got = float(backward_mean_cosine(NumpyOps(dtype), dtype(g)))
         assert abs(got - expected) < (1e-6 if dtype == np.float64 else 2e-4), (dtype, got, expected)
+
+
+@pytest.mark.parametrize("g", [-0.999, -0.9, -0.3, -0.011, -0.009, 0.0, 0.005, 0.3, 0.9, 0.999])
+@pytest.mark.parametrize("c", [0.0, 0.3, 0.745, 0.95])
+def test_forward_cone_fraction_of_hg(g, c):
+    """The closed form against a quadrature of the HG phase function over its forward half (the
+    share of the forward half within the cone of cosine c about the forward direction); the
+    small-|g| series meets the closed form at |g| = 0.01."""
+    from lamella.core.models.hg import forward_cone_fraction
+
+    # midpoint rule in log(1 - mu), which resolves the forward peak of g near 1
+    t = np.geomspace(1e-12, 1.0, 400001)
+    tm, dt = np.sqrt(t[1:] * t[:-1]), np.diff(t)
+    mu = 1.0 - tm  # cosine about the forward direction
+    p = (1 - g * g) / (1 + g * g - 2 * g * mu) ** 1.5 * dt
+    expected = float(p[mu > c].sum() / p.sum())
+    for dtype in (np.float64, np.float32):
+        got = float(forward_cone_fraction(NumpyOps(dtype), dtype(g), dtype(c)))
+        assert abs(got - expected) < (2e-4 if dtype == np.float64 else 1e-3), (dtype, got, expected)
+        assert 0.0 <= got <= 1.0

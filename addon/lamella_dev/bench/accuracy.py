@@ -257,10 +257,28 @@ def run(ref_dir: Path = REFERENCE_DIR, out_dir: Path = BENCH_DIR, models=MODELS,
         if path.stem not in suite.names():
             rows.extend({**r, "pending": True} for r in evaluate_case(path.stem, load_reference(path.stem, pending_dir),
                                                                       models))
-    mpath = write_page(out_dir, "accuracy", lambda: format_markdown(rows, models, rows_multiple),
+    floor = floors(out_dir)
+    mpath = write_page(out_dir, "accuracy", lambda: format_markdown(rows, models, rows_multiple, floor),
                        {"models": list(models), "wi_degrees": list(suite.WI_DEGREES), "rows": rows,
-                        "rows_multiple": rows_multiple})
+                        "rows_multiple": rows_multiple,
+                        "floors": [{"case": c, "wi": w, "floor": v} for (c, w), v in floor.items()]})
     return mpath, mpath.with_suffix(".json")
+
+
+def floors(page_dir: Path = BENCH_DIR) -> dict[tuple[str, float], float]:
+    """(case, incidence) -> the floor of ``auto``'s lobes against the energy-conserving reference,
+    as the last `lamella bench lobe-floor` stored it in ``page_dir`` (empty when it has not run there).
+    The accuracy page stores the floors it showed (``stored_floors``)."""
+    path = Path(page_dir) / "lobe_floor.json"
+    if not path.exists():
+        return {}
+    data = json.loads(path.read_text(encoding="utf-8"))
+    return {(r["case"], r["wi"]): r["rel_l1_floor"] for r in data.get("paths", [])} if isinstance(data, dict) else {}
+
+
+def stored_floors(data: dict) -> dict[tuple[str, float], float]:
+    """The floors an accuracy page's stored measurements (``bench/accuracy.json``) were shown with."""
+    return {(r["case"], r["wi"]): r["floor"] for r in data.get("floors", [])}
 
 
 def median_table(rows: list[dict], models, wis) -> list[str]:
@@ -277,14 +295,20 @@ def median_table(rows: list[dict], models, wis) -> list[str]:
     return lines
 
 
-def _case_tables(rows: list[dict], models, wis, desc) -> list[str]:
+def _case_tables(rows: list[dict], models, wis, desc, floors: dict | None = None) -> list[str]:
+    """Per case, a table of every model's relative L1 / albedo error per incidence; with ``floors``
+    ((case, incidence) -> the floor of ``auto``'s lobes, ``lobe_floor.floors``) two more columns:
+    that floor and ``auto`` minus it, the model's own error."""
     from lamella.core.models import choose_auto
 
+    floors = floors or {}
     lines = []
     for name in dict.fromkeys(r["case"] for r in rows):
+        with_floor = any((name, w) in floors for w in wis)
         lines += [f"### {name}", "", desc.get(name, "") + f" `auto` runs {choose_auto(suite.load(name))}.", ""]
-        lines.append("| wi | " + " | ".join(models) + " | noise |")
-        lines.append("|---|" + "---|" * (len(models) + 1))
+        extra = " floor | auto − floor |" if with_floor else ""
+        lines.append("| wi | " + " | ".join(models) + " | noise |" + extra)
+        lines.append("|---|" + "---|" * (len(models) + 1 + 2 * with_floor))
         for w in wis:
             cells = {r["model"]: r for r in rows if r["case"] == name and r["wi"] == w}
             l1s = {m: cells[m]["rel_l1"] for m in models if m != "auto" and "rel_l1" in cells.get(m, {})}
@@ -298,11 +322,17 @@ def _case_tables(rows: list[dict], models, wis, desc) -> list[str]:
                 s = f"{r['rel_l1']:.3f} / {r['albedo_err']:.3f}"
                 out.append(f"**{s}**" if m == best else s)
             noise = next((r["ref_noise"] for r in cells.values() if "ref_noise" in r), float("nan"))
-            lines.append(f"| {w:g}° | " + " | ".join(out) + f" | {noise:.3f} |")
+            tail = ""
+            if with_floor:
+                floor = floors.get((name, w))
+                auto = cells.get("auto", {}).get("rel_l1")
+                tail = (f" {floor:.3f} | **{auto - floor:.3f}** |" if floor is not None and auto is not None
+                        else " | |")
+            lines.append(f"| {w:g}° | " + " | ".join(out) + f" | {noise:.3f} |" + tail)
             if any("rel_l1_t" in r for r in cells.values()):
                 out = [f"{cells[m]['rel_l1_t']:.3f} / {cells[m]['albedo_err_t']:.3f}" if "rel_l1_t" in cells.get(m, {})
                        else "unsupported" for m in models]
-                lines.append(f"| {w:g}° T | " + " | ".join(out) + " | |")
+                lines.append(f"| {w:g}° T | " + " | ".join(out) + " | |" + " | |" * with_floor)
         lines.append("")
     return lines
 
@@ -323,7 +353,8 @@ def _glass_plate_reading(rows: list[dict], case: str = "rough_glass_plate", ours
             f"({adding}), the reflected side {r_ours:.2f} against {r_adding:.2f}")
 
 
-def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None = None) -> str:
+def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None = None,
+                    floors: dict | None = None) -> str:
     desc = {**suite.pending_descriptions(), **suite.descriptions()}
     wis = sorted({r["wi"] for r in rows})
     rows_multiple = rows_multiple or []
@@ -368,8 +399,12 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
         "",
     ]
     if rows_multiple:
-        lines += (["## Against multiple-scattering interfaces", ""]
-                  + _case_tables(rows_multiple, models, sorted({r["wi"] for r in rows_multiple}), desc))
+        lines += ["## Against multiple-scattering interfaces", ""]
+        if floors:
+            lines += ["*floor*: `auto`'s lobes with every energy and roughness fitted to this reference, the error no "
+                      "choice of them removes (`bench/lobe_floor.md`, from its last run); *auto − floor*: the model's own "
+                      "error, what better energies and roughnesses can still remove.", ""]
+        lines += _case_tables(rows_multiple, models, sorted({r["wi"] for r in rows_multiple}), desc, floors)
         lines += ["## Against single-scattering interfaces", ""]
     lines += _case_tables([r for r in rows if not r.get("pending")], models, wis, desc)
     pending = [r for r in rows if r.get("pending")]

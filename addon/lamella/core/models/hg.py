@@ -53,3 +53,18 @@ def backward_mean_cosine(ops, g):
     one = 1.0 + gs
     closed = -(a - (1.0 + gs + gs * gs) / one) / (gs * (1.0 / a - 1.0 / one))
     return ops.select(small, 0.5 - 0.25 * g * (1.0 - g), closed)
+
+
+def forward_cone_fraction(ops, g, cos_cone):
+    """The fraction of the forward half of a HG phase function that lies within the cone of cosine
+    ``cos_cone`` about its forward direction: with the HG cumulative over the scattering cosine x,
+    F(x) = (1 - g^2) / (2 g) ((1 + g^2 - 2 g x)^-1/2 - 1 / (1 + g)), (F(1) - F(c)) / (F(1) - F(0)) =
+    (1 / (1 - g) - (1 + g^2 - 2 g c)^-1/2) / (1 / (1 - g) - (1 + g^2)^-1/2); (1 - c)(1 + 3 g c / 2)
+    below |g| = 0.01, where the closed form cancels. The backward half about the backward
+    direction is the forward half of -g. 1 for c = 0; for the escape cone of index 1.5 (c = 0.745)
+    0.92 at g = 0.9, 0.17 at g = -0.9, 0.255 for isotropic scattering."""
+    small = ops.abs(g) < 0.01
+    gs = ops.select(small, 0.5, g)  # keeps the unused branch finite
+    inv = 1.0 / (1.0 - gs)
+    closed = (inv - 1.0 / ops.sqrt(1.0 + gs * gs - 2.0 * gs * cos_cone)) / (inv - 1.0 / ops.sqrt(1.0 + gs * gs))
+    return ops.select(small, (1.0 - cos_cone) * (1.0 + 1.5 * g * cos_cone), closed)
