@@ -76,8 +76,8 @@ def test_the_extension_entry_imports_nothing_until_registered():
     assert found == {"new": [], "api": [True, True, True]}
 
 
-def test_the_package_registers_the_built_in_kinds_hooks_and_its_modules_in_order():
-    pytest.importorskip("bpy")
+def test_the_package_registers_the_built_in_kinds_hooks_and_its_modules_in_order(addon):
+    # ``addon``: registered here, whatever another test of this worker left unregistered before
     import lamella.blender as blender
     from lamella.blender import asset_library, compiled, conductor_modes, kind_hooks, operators, properties
     from lamella.blender import recompile, ui
