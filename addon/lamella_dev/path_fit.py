@@ -43,7 +43,8 @@ SHORTLIST = 6  # per lobe and pass, the candidates (ranked with least-squares en
 class PathFit:
     """``rel_l1``: the fitted lobes' relative L1 against the reference; ``rel_l1_model``: the
     model's own lobes' (what ``api.evaluate(..., deltas=False)`` gives); per fitted lobe its
-    kind, model roughness, fitted roughness (alpha_x, alpha_y) and fitted energy (RGB, on the grid)."""
+    kind, model roughness, fitted roughness (alpha_x, alpha_y) and fitted energy (RGB, on the grid;
+    where no fit beat the model's own lobes, their weights)."""
 
     rel_l1: float
     rel_l1_model: float
@@ -66,7 +67,14 @@ def _visible(lb: api.Lobes, side: str) -> list[int]:
     return out
 
 
-def _shape(ops, wi_vals, wo_vals, w, kind, ax, ay, rotation) -> np.ndarray:
+def direction_inputs(ops, wi: np.ndarray, wo: np.ndarray) -> tuple[tuple, tuple]:
+    """(wi, wo) as the backend's inputs, wi (3,) broadcast against wo (N, 3)."""
+    wib = np.broadcast_to(wi, wo.shape)
+    return (tuple(ops.input(n, wib[:, j]) for j, n in enumerate(("wi_x", "wi_y", "wi_z"))),
+            tuple(ops.input(n, wo[:, j]) for j, n in enumerate(("wo_x", "wo_y", "wo_z"))))
+
+
+def lobe_shape(ops, wi_vals, wo_vals, w, kind, ax, ay, rotation) -> np.ndarray:
     """f cos of a lobe of ``kind`` and unit energy over the grid (unit integral against ``w``)."""
     lobe = Lobe((1.0, 1.0, 1.0), ax, ay, rotation, kind)
     v = np.broadcast_to(np.asarray(lobe_kinds.kind(kind).closure_cos(ops, lobe, wi_vals, wo_vals), float), w.shape)
@@ -120,9 +128,7 @@ def fit_paths(stack, wi: np.ndarray, wo: np.ndarray, w: np.ndarray, f_ref: np.nd
     err_model = relative_l1(f_model, f_ref, w)
     if not ks:
         return PathFit(err_model, err_model, (), [], [], [])
-    wib = np.broadcast_to(wi, wo.shape)
-    wi_vals = tuple(ops.input(n, wib[:, j]) for j, n in enumerate(("wi_x", "wi_y", "wi_z")))
-    wo_vals = tuple(ops.input(n, wo[:, j]) for j, n in enumerate(("wo_x", "wo_y", "wo_z")))
+    wi_vals, wo_vals = direction_inputs(ops, wi, wo)
     kinds = tuple(lb.kinds[k] for k in ks)
     alphas_model = [(float(lb.alpha_x[0, k]), float(lb.alpha_y[0, k])) for k in ks]
     in_plane = [plane and lobe_kinds.kind(kinds[j]).rough and a[0] == a[1] for j, a in enumerate(alphas_model)]
@@ -134,7 +140,7 @@ def fit_paths(stack, wi: np.ndarray, wo: np.ndarray, w: np.ndarray, f_ref: np.nd
     def shape(j, a):
         key = (j, a)
         if key not in cache:
-            cache[key] = _shape(ops, wi_vals, wo_vals, w, kinds[j], a[0], a[1], rot[j])
+            cache[key] = lobe_shape(ops, wi_vals, wo_vals, w, kinds[j], a[0], a[1], rot[j])
         return cache[key]
 
     def shapes_of(alphas):

@@ -297,7 +297,7 @@ def median_table(rows: list[dict], models, wis) -> list[str]:
 
 def _case_tables(rows: list[dict], models, wis, desc, floors: dict | None = None) -> list[str]:
     """Per case, a table of every model's relative L1 / albedo error per incidence; with ``floors``
-    ((case, incidence) -> the floor of ``auto``'s lobes, ``lobe_floor.floors``) two more columns:
+    ((case, incidence) -> the floor of ``auto``'s lobes, ``floors``) two more columns:
     that floor and ``auto`` minus it, the model's own error."""
     from lamella.core.models import choose_auto
 

@@ -220,14 +220,14 @@ def _shapes_markdown(rows: list[dict]) -> list[str]:
     md = ["## One coat over a conductor: other shapes for the base path", "",
           "The suite's stacks of one isotropic coat over an isotropic conductor, "
           "against the energy-conserving references. *auto*: the model's relative L1. *best α*: the base lobe's "
-          "roughness scanned (energy the model's). *floor*: roughness scanned and energy the reference's albedo "
+          "roughness scanned (energy the model's). *base floor*: the base lobe alone fitted, roughness scanned and energy the reference's albedo "
           "minus the surface lobe's, i.e. the error left if energy and roughness were exact "
-          "(`lamella_dev/bench/lobe_floor.py`). Other shapes for the base path, energy the reference's as for the floor: "
+          "(`lamella_dev/bench/lobe_floor.py`). Other shapes for the base path, energy the reference's as for the base floor: "
           "*two lobes*: two GGX lobes about the mirror direction (roughnesses and energy split scanned); *tilted*: one "
           "GGX lobe about the mirror of another incidence in the incidence plane (that incidence and α scanned); "
           "*anisotropic*: two roughnesses, along and across the incidence plane. *noise*: the reference's own stderr "
           "on the metric (a floor of its own).", "",
-          "| case | θi | model α → best α | auto | best α | floor | two lobes (α, α, share) | tilted (θ, α) | "
+          "| case | θi | model α → best α | auto | best α | base floor | two lobes (α, α, share) | tilted (θ, α) | "
           "anisotropic (α along, across) | noise |",
           "|---|---:|---|---:|---:|---:|---|---|---|---:|"]
     for r in rows:
@@ -236,7 +236,7 @@ def _shapes_markdown(rows: list[dict]) -> list[str]:
                   f"{r['rel_l1_floor_two']:.3f} ({r['two_alphas'][0]:.3f}, {r['two_alphas'][1]:.3f}, {r['two_share']:.2f}) | "
                   f"{r['rel_l1_floor_tilted']:.3f} ({r['tilted_theta']:g}°, {r['tilted_alpha']:.3f}) | "
                   f"{r['rel_l1_floor_aniso']:.3f} ({r['alpha_along']:.3f}, {r['alpha_across']:.3f}) | {r['ref_noise']:.3f} |")
-    md += ["", "Median over these cases:", "", "| θi | auto | best α | floor | two lobes | tilted | anisotropic | noise |",
+    md += ["", "Median over these cases:", "", "| θi | auto | best α | base floor | two lobes | tilted | anisotropic | noise |",
            "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for a in angles:
         sel = [r for r in rows if r["wi"] == a]
