@@ -147,15 +147,20 @@ def test_reference_noise_floor(rows):
 @pytest.mark.parametrize("case", suite.names())
 def test_auto_is_within_ten_percent_of_the_best_model(rows_multiple, case):
     """`auto` (a structural choice) is never worse than the best single model on a suite case by
-    more than 10 % relative, in relative L1 averaged over the incidence angles, against the
-    energy-conserving references (the yardstick the models are measured by; against the
-    single-scattering ones, which lose what a rough interface scatters again, endf on the rough
-    glass plate is 0.29 against tm2's and tm6's 0.27)."""
+    more than 10 % relative, in relative L1 averaged over the incidence angles (and over both
+    sides where the stack transmits: a glass base's transmitted light is half of what it looks
+    like, and what `auto` chooses endf for), against the energy-conserving references (the
+    yardstick the models are measured by; against the single-scattering ones, which lose what a
+    rough interface scatters again, endf on the rough glass plate is 0.29 against tm2's and tm6's
+    0.27 on the reflected side)."""
     rows = rows_multiple
+
+    def error(r):
+        return 0.5 * (r["rel_l1"] + r["rel_l1_t"]) if "rel_l1_t" in r else r["rel_l1"]
 
     def mean(m):
         rs = [rows[(case, m, wi)] for wi in suite.WI_DEGREES]
-        return np.mean([r["rel_l1"] for r in rs]) if all("rel_l1" in r for r in rs) else np.inf
+        return np.mean([error(r) for r in rs]) if all("rel_l1" in r for r in rs) else np.inf
 
     best = min(mean(m) for m in MODELS if m != "auto")
     assert mean("auto") <= 1.1 * best, (mean("auto"), best)

@@ -4,22 +4,15 @@ and the closures are normalised to) within 2 % (`lamella bench energy`, `bench/e
 
 The back-scattered family of the six-flux model is a lobe about the mirror direction: about the
 view direction, as the paper has it, it lost up to a third of its weight below the horizon
-(fog_g05_d4 at 75 degrees delivered 0.67 of it). One anisotropic case is still off and
-expected to fail (strict: a fix shows)."""
+(fog_g05_d4 at 75 degrees delivered 0.67 of it)."""
 import pytest
 
 from lamella_dev.bench import energy
 from lamella_dev import suite
 
-# the brushed base under a coat at 75 degrees delivers 2.6 % more than its weight: the anisotropic
-# lobe's normaliser is 1 / GD at its RMS roughness
-ANISOTROPIC_GD = {"coat_over_brushed"}
-
 
 @pytest.mark.parametrize("name", suite.names())
-def test_albedo_is_the_integral_of_evaluate(name, request):
-    if name in ANISOTROPIC_GD:
-        request.applymarker(pytest.mark.xfail(strict=True, reason="bench/energy.md: anisotropic GD at the RMS roughness"))
+def test_albedo_is_the_integral_of_evaluate(name):
     stack = suite.load(name)
     for deg in energy.ANGLES:
         w, i = energy.delivered(stack, suite.incident(deg))

@@ -34,7 +34,7 @@ from lamella_dev.bench import unregister as unregister_bench
 
 from . import extension_kinds
 from .extension_kinds import coat_count
-from .test_node_graph import _compare, _directions
+from .test_node_graph import _closure_pairs, _directions
 from .test_tracing import assert_graph_is_numpy, random_dirs, trace
 
 COLOR = [0.9, 0.5, 0.2]
@@ -180,8 +180,9 @@ def test_the_node_plan_of_the_new_kinds_equals_the_traced_model(pair, staged):
     new, _ = PAIRS[pair]
     plan = emit_plan(lc.Stack.from_dict(new), staged=staged)
     values = dict(_directions(grazing=False), **plan.params)
-    for want, got in _compare(plan, values):
-        assert np.abs(got - want).max() <= 1e-4 * max(1.0, np.abs(want).max())
+    for _, color, args in _closure_pairs(plan, values):
+        for want, got in (*color, *args):
+            assert np.abs(got - want).max() <= 1e-4 * max(1.0, np.abs(want).max())
     if not staged and new["layers"] and new["layers"][0].get("type") == "tinted_lacquer":
         # the absorbance lowered to its own nodes: LOGARITHM then a multiplication by -1
         assert any(n.props.get("operation") == "LOGARITHM" for n in plan.nodes)

@@ -57,12 +57,7 @@ def test_plan_equals_the_traced_model(case, staged):
         grid = staging.ViewGrid(staging.N_MU, staging.N_PHI)
     plan = emit_plan(suite.load(case), staged=bool(staged), grid=grid)
     values = dict(_directions(grazing=False), **plan.params)
-    pairs = iter(_compare(plan, values))
-    lobes = []
-    for b in plan.bsdfs:
-        color = [next(pairs) for _ in range(3)]
-        args = [next(pairs) for _ in b.floats] + [next(pairs) for v in b.vectors.values() if v is not None for _ in v]
-        lobes.append((b, color, args))
+    lobes = _closure_pairs(plan, values)
     top = max(np.abs(w).max() for _, color, _ in lobes for w, _ in color)
     for b, color, args in lobes:
         for w, g in color:
@@ -71,6 +66,41 @@ def test_plan_equals_the_traced_model(case, staged):
         for w, g in args:
             err = np.abs(g - w) / np.maximum(np.abs(w), 1e-3)
             assert err[live].max(initial=0.0) < 1e-4, f"{b.label}: argument"
+
+
+def _closure_pairs(plan, values) -> list:
+    """Per closure of ``plan``: (its BSDF, (want, got) of its colour's channels, (want, got) of its
+    arguments as ``_closure_arguments`` compares them)."""
+    pairs = iter(_compare(plan, values))
+    lobes = []
+    for b in plan.bsdfs:
+        color = [next(pairs) for _ in range(3)]
+        args = {name: next(pairs) for name in b.floats}
+        args.update({f"{name}{i}": next(pairs) for name, v in b.vectors.items() if v is not None for i in range(3)})
+        lobes.append((b, color, _closure_arguments(args)))
+    return lobes
+
+
+def _closure_arguments(args: dict) -> list:
+    """(want, got) pairs of what the closure renders: an anisotropic Glossy's Roughness,
+    Anisotropy and Tangent as its roughness tensor alpha_x t t^T + alpha_y b b^T (the axes and
+    the anisotropy of a nearly round lobe are ill-conditioned in float32, the lobe is not; each
+    component relative to the tensor's size), every other argument as it is."""
+    if not {"Anisotropy", "Tangent0"} <= set(args):
+        return list(args.values())
+    tensors = []
+    for k in range(2):
+        r, a = args["Roughness"][k], args["Anisotropy"][k]
+        tx, ty = args["Tangent0"][k], args["Tangent1"][k]
+        n = np.hypot(tx, ty)
+        tx, ty = tx / n, ty / n
+        alpha = r * r
+        ax = np.where(a >= 0.0, alpha * (1.0 - a), alpha / (1.0 + a))
+        ay = np.where(a >= 0.0, alpha / (1.0 - a), alpha * (1.0 + a))
+        tensors.append((ax * tx * tx + ay * ty * ty, (ax - ay) * tx * ty, ax * ty * ty + ay * tx * tx))
+    size = np.maximum(np.abs(tensors[0][0]), np.abs(tensors[0][2]))
+    rest = [v for name, v in args.items() if name not in {"Roughness", "Anisotropy", "Tangent0", "Tangent1", "Tangent2"}]
+    return rest + [(np.maximum(size, 1e-3), np.maximum(size, 1e-3) + (g - w)) for w, g in zip(*tensors)]
 
 
 @pytest.mark.parametrize("staged", [True, False], ids=["staged", "traced"])

@@ -111,6 +111,11 @@ class Stack:
     def has_scattering(self) -> bool:
         return any(c.has_scattering for c in self.coats)
 
+    @property
+    def isotropic(self) -> bool:
+        """Every interface isotropic: the stack's response is symmetric about the normal."""
+        return all(r[0] == r[1] for r in (getattr(layer, "roughness", (0.0, 0.0)) for layer in (*self.coats, self.base)))
+
     def interface_iors(self) -> list[float]:
         """Absolute index of every medium from the top: [1.0 (vacuum), coat 0, ..., coat n-1]."""
         return [1.0] + [c.ior for c in self.coats]

@@ -26,5 +26,9 @@ def blender_anisotropy(ops, ax, ay):
     isotropic lobe) gives r = sqrt(alpha) and no anisotropy, without the nodes that would find it."""
     if ax is ay and not isinstance(ax, (int, float)) and getattr(ops, "name", "") == "trace":
         return ops.sqrt(ax), 0.0
-    q = ops.sqrt((ops.min(ax, ay) + 1e-12) / (ops.max(ax, ay) + 1e-12))  # 1 for isotropic, even at 0
-    return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, 1.0 - q, q - 1.0)
+    lo, hi = ops.min(ax, ay), ops.max(ax, ay)
+    q = ops.sqrt((lo + 1e-12) / (hi + 1e-12))  # 1 for isotropic, even at 0
+    # 1 - q = (1 - q^2) / (1 + q) = (hi - lo) / ((hi + 1e-12) (1 + q)): no cancellation for nearly
+    # equal axes (hi - lo is exact there), where 1 - q is a multiple of float32's 2^-24
+    a = (hi - lo) / ((hi + 1e-12) * (1.0 + q))
+    return ops.sqrt(ops.sqrt(ax * ay)), ops.select(ax <= ay, a, 0.0 - a)

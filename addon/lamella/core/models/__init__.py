@@ -8,9 +8,11 @@ the lobe-kind table (``lamella.core.lobe_kinds``).
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..registry import Registry, require_callables
 from . import coverage
-from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, Variant
+from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_REFINED, Variant
 from .endf import ENDF
 from .rgb import RGB
 from .roughness import MAPPINGS
@@ -38,7 +40,7 @@ def unregister(model_or_name) -> None:
     MODELS.unregister(model_or_name)
 
 
-for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, TransferMatrix("tm2", six_flux=False),
+for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_REFINED, TransferMatrix("tm2", six_flux=False),
                TransferMatrix("tm6", six_flux=True), ENDF()):
     register(_model)
 VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
@@ -59,9 +61,13 @@ def choose_auto(stack) -> str:
     isotropic dielectric base (coated                     both interfaces: the transmitted side
     glass, a glass plate)                                 far closer than the adding family's,
                                                           the reflected side about the same
-    interfaces, absorbing coats, any      yamaguchi2019   2x2 covariance: follows rotated
-    base                                                  anisotropy; the adding-doubling
-                                                          family is best on these cases
+    interfaces, absorbing coats, any      yamaguchi_      2x2 covariance: follows rotated
+    base                                  refined         anisotropy; the adding-doubling
+                                                          family is best on these cases, and
+                                                          Yamaguchi et al. 2019 with the
+                                                          refinements of
+                                                          bench/interface_variants.md best
+                                                          of it
     ====================================  ==============  =====================================
     """
     if stack.has_scattering:
@@ -69,7 +75,7 @@ def choose_auto(stack) -> str:
     if (stack.base.kind.transmits and len(stack.coats) == 1
             and all(layer.roughness[0] == layer.roughness[1] for layer in (stack.coats[0], stack.base))):
         return "endf"
-    return "yamaguchi2019"
+    return YAMAGUCHI_REFINED.name
 
 
 def get(name: str):
@@ -86,17 +92,20 @@ def resolve(model, stack):
     return get(choose_auto(stack) if model == "auto" else model)
 
 
-def variant(name: str, mapping: str | None = None, tir: bool | None = None) -> Variant:
+def variant(name: str, mapping=None, tir: bool | None = None, **refinements) -> Variant:
     """An adding-doubling variant by name, optionally with another roughness<->variance mapping
-    or TIR switch (for studies; the registry holds the published ones)."""
-    v = get("yamaguchi2019" if name == "auto" else name)
+    (a name of ``roughness.MAPPINGS`` or a ``roughness.Mapping``), TIR switch or refinements
+    (``adding_doubling.Variant``'s ``jacobians``, ``refraction_spread``, ``grazing``), for studies;
+    the registry holds the published ones."""
+    v = get(YAMAGUCHI_REFINED.name if name == "auto" else name)
     if not isinstance(v, Variant):
         raise ValueError(f"{name!r} is not an adding-doubling variant")
+    changes = dict(refinements)
     if mapping is not None:
-        v = Variant(v.name, v.spread, MAPPINGS[mapping], v.tir)
+        changes["mapping"] = MAPPINGS[mapping] if isinstance(mapping, str) else mapping
     if tir is not None:
-        v = Variant(v.name, v.spread, v.mapping, tir)
-    return v
+        changes["tir"] = tir
+    return replace(v, **changes)
 
 
 def run_model(ops, stack, wi, model, partial=None) -> list[Lobe]:

@@ -136,7 +136,7 @@ def check_supported(stack) -> None:
         ax, ay = layer.roughness
         if ax != ay:
             raise UnsupportedStack(f"endf: {where} has anisotropic roughness [{ax}, {ay}]; the vMF lobes are "
-                                   "isotropic (yamaguchi2019 and auto follow anisotropy)")
+                                   "isotropic (yamaguchi2019, yamaguchi_refined and auto follow anisotropy)")
 
 
 def endf(ops, stack, wi) -> list[Lobe]:

@@ -50,6 +50,10 @@ class ScalarVariance:
     def mean(self):
         return self.v
 
+    def plus_along(self, ops, ux, uy, v):
+        """This spread plus variance ``v`` along the unit direction (ux, uy), averaged here."""
+        return ScalarVariance(self.v + 0.5 * v)
+
     def bounded(self, ops):
         return ScalarVariance(ops.min(self.v, VARIANCE_MAX))
 
@@ -111,6 +115,10 @@ class AxisVariance:
     def mean(self):
         return 0.5 * (self.x + self.y)
 
+    def plus_along(self, ops, ux, uy, v):
+        """This spread plus variance ``v`` along the unit direction (ux, uy), on the shared axes."""
+        return AxisVariance(self.x + v * ux * ux, self.y + v * uy * uy)
+
     def bounded(self, ops):
         return AxisVariance(ops.min(self.x, VARIANCE_MAX), ops.min(self.y, VARIANCE_MAX))
 
@@ -162,6 +170,10 @@ class CovarianceVariance:
 
     def mean(self):
         return 0.5 * (self.xx + self.yy)
+
+    def plus_along(self, ops, ux, uy, v):
+        """This spread plus variance ``v`` along the unit direction (ux, uy): Sigma + v u u^T."""
+        return CovarianceVariance(self.xx + v * ux * ux, self.xy + v * ux * uy, self.yy + v * uy * uy)
 
     def bounded(self, ops):
         """The covariance scaled down (its shape kept) so that its larger diagonal entry, which

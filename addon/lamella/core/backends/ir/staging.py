@@ -218,8 +218,9 @@ class StagedOps(NumpyOps):
 
 
 def isotropic(stack: Stack) -> bool:
-    """Every interface isotropic: the stack's response is symmetric about the normal."""
-    return all(r[0] == r[1] for r in (getattr(layer, "roughness", (0.0, 0.0)) for layer in (*stack.coats, stack.base)))
+    """Every interface isotropic: the stack's response is symmetric about the normal
+    (``Stack.isotropic``)."""
+    return stack.isotropic
 
 
 # ---------------------------------------------------------------- staging
