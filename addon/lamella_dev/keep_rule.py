@@ -39,17 +39,15 @@ def errors(model="auto", cases=None) -> dict[tuple[str, float], float]:
     energy-conserving reference, every hold-out stack against its own; ``cases``: only these
     names (suite or hold-out)."""
     from .bench.accuracy import evaluate_case, load_reference
-    from .bench.holdout import HOLDOUT_DIR
+    from .bench.holdout import stored
     from .bench.paths import REFERENCE_DIR_MULTIPLE
 
+    named = [(n, load_reference(n, REFERENCE_DIR_MULTIPLE), None) for n in suite.names()
+             if cases is None or n in cases]
+    named += [(n, ref, Stack.from_dict(ref["meta"]["stack"])) for n, ref in stored().items()
+              if cases is None or n in cases]
     out = {}
-    named = [(n, REFERENCE_DIR_MULTIPLE, False) for n in suite.names()]
-    named += [(p.stem, HOLDOUT_DIR, True) for p in sorted(HOLDOUT_DIR.glob("*.npz"))]
-    for name, ref_dir, held_out in named:
-        if cases is not None and name not in cases:
-            continue
-        ref = load_reference(name, ref_dir)
-        stack = Stack.from_dict(ref["meta"]["stack"]) if held_out else None
+    for name, ref, stack in named:
         for row in evaluate_case(name, ref, (model,), stack=stack):
             if "rel_l1" in row:
                 out[(name, row["wi"])] = row["rel_l1"]

@@ -249,14 +249,14 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     return lobes
 
 
-def _dielectric_interface(ops, variant: Variant, p, sx, sy, cti, n_above, n12, isotropic: bool = True):
+def _dielectric_interface(ops, variant: Variant, p, sx, sy, cti, n_above, n12, isotropic: bool):
     """Energies (R12, T12 from above; R21, T21 from below; RGB: a thin film on the interface colours
     them, ``film.dielectric_energies``), the relative ease kappa with which the
     light the interface reflects from below comes through it again (``_adding_energies``),
     refracted mean direction, Jacobians and spreads (reflected; transmitted down and up;
     transmitted down as it decides escape) of a rough dielectric interface from index n_above onto
     n_above * n12 (Weier & Belcour 2020 Listing 3, lines 20-37), with ``variant``'s refinements
-    (``isotropic``: the stack's interfaces all are)."""
+    (``isotropic``: the stack's interfaces all are: ``ax`` equals ``ay``)."""
     Spread, mapping = variant.spread, variant.mapping
     cos_r, sin_r = ops.cos(p["rotation"]), ops.sin(p["rotation"])
     ax, ay = p["ax"], p["ay"]
@@ -289,7 +289,7 @@ def _dielectric_interface(ops, variant: Variant, p, sx, sy, cti, n_above, n12, i
         if variant.refraction_spread == "direction down":
             s_t12 = Spread.from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=at_mean)
         else:
-            s_t12 = _across(ops, Spread, mapping, ax, ay, cos_r, sin_r, sx, sy, along, at_mean)
+            s_t12 = _across(ops, Spread, mapping, ax, sx, sy, along, at_mean)
     s_t21 = Spread.from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=up)
     # the spread that decides escape through the interfaces above: a facet tilt d deviates the
     # refracted direction's tangential part by d |ctt - cti / n12| (Walter et al. 2007 Eq. 40
@@ -308,20 +308,17 @@ def _dielectric_interface(ops, variant: Variant, p, sx, sy, cti, n_above, n12, i
     return (R12, 1.0 - R12, R21, 1.0 - R21), kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_esc
 
 
-def _across(ops, Spread, mapping, ax, ay, cos_r, sin_r, sx, sy, along, across):
-    """The spread of an interface's transmission with deviation scale ``along`` in the plane of
-    incidence (the mean direction's tangential part (sx, sy)) and the larger ``across`` across it:
-    the interface's spread at ``along`` plus, along the unit vector across the plane, the variance
-    the roughness projected there (Heitz 2014 Eq. 80) gains from ``along`` to ``across``. At normal
-    incidence, where the plane is undefined, the two scales are equal and nothing is added."""
+def _across(ops, Spread, mapping, a, sx, sy, along, across):
+    """The spread of an isotropic interface's (roughness ``a``) transmission with deviation scale
+    ``along`` in the plane of incidence (the mean direction's tangential part (sx, sy)) and the
+    larger ``across`` across it: the spread at ``along`` plus, along the unit vector across the
+    plane, the variance the roughness gains from ``along`` to ``across``. At normal incidence,
+    where the plane is undefined, the two scales are equal and nothing is added."""
     s2 = sx * sx + sy * sy
     inv = 1.0 / ops.sqrt(ops.max(s2, 1e-24))
-    ex, ey = (0.0 - sy) * inv, sx * inv
-    u, v = ex * cos_r + ey * sin_r, ey * cos_r - ex * sin_r
-    a_across = ops.sqrt(ax * ax * u * u + ay * ay * v * v)
-    extra = ops.max(mapping.to_variance(ops, a_across * across) - mapping.to_variance(ops, a_across * along), 0.0)
-    base = Spread.from_interface(ops, mapping, ax, ay, cos_r, sin_r, scale=along)
-    return base.plus_along(ops, ex, ey, ops.select(s2 > 1e-12, extra, 0.0))
+    extra = ops.max(mapping.to_variance(ops, a * across) - mapping.to_variance(ops, a * along), 0.0)
+    base = Spread.from_interface(ops, mapping, a, a, 1.0, 0.0, scale=along)
+    return base.plus_along(ops, (0.0 - sy) * inv, sx * inv, ops.select(s2 > 1e-12, extra, 0.0))
 
 
 def _add_interface(ops, variant, mapping, index, sx, sy, n_above, interface, kappa, j12, s_r12, s_t12, s_t21,
