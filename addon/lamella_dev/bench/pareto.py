@@ -25,11 +25,17 @@ own noise (``noise_rmse`` in its index) is a floor no variant can go under. From
   auto``'s error (extrapolated at the Monte Carlo rate, error^2 - floor^2 proportional to 1/time,
   where its ladder does not reach it).
 
+The full run renders for 1.5 to 4 hours. Each stack's measurements are kept as they finish
+(``cache/pareto/<case>.json`` in the repository, with a fingerprint of the settings, the stack and
+the model's lobes at five incidences); ``--resume`` reuses the ones whose fingerprint still
+matches, so an interrupted run goes on where it stopped and spans sessions.
+
 ``--quick`` (what the test suite runs): one scattering stack at 32 px against its reference averaged
 down, two sample counts, each cost sweep at one size (eight coats; optical depth 4).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -39,7 +45,7 @@ import numpy as np
 
 from .. import suite
 from lamella.core.stack import Stack
-from .paths import BENCH_DIR
+from .paths import BENCH_DIR, REPO
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
 from .page import write_page
 from .registry import Bench, cases_argument, register
@@ -152,6 +158,49 @@ def stack_curves(name: str, s: Settings, bar=None) -> dict:
             "curves": {k: c.points for k, c in curves.items()}}
 
 
+# ---------------------------------------------------------------- resuming
+PARTIAL_DIR = REPO / "cache" / "pareto"
+
+
+def fingerprint(name: str, s: Settings) -> str:
+    """What a stack's stored measurements depend on: the settings, the stack and ``auto``'s lobes
+    (energies and roughnesses at 0 to 75 degrees), hashed. A change of the model changes it; a
+    change of the renderer alone does not (``--resume`` is asked for, never implied)."""
+    from lamella.core import api
+
+    stack = suite.load(name)
+    lobes = []
+    for deg in (0.0, 30.0, 45.0, 60.0, 75.0):
+        lb = api.lobes(stack, suite.incident(deg))
+        lobes.append([list(lb.kinds)] + [np.round(np.asarray(x, dtype=np.float64), 6).tolist()
+                                         for x in (lb.weight, lb.alpha_x, lb.alpha_y, lb.rotation)])
+    settings = {"res": s.res, "ladder": s.ladder, "brute_ladder": s.brute_ladder,
+                "variants": [(v.label, v.engine, str(v.budget)) for v in s.variants], "pixels": PIXELS}
+    text = json.dumps({"settings": settings, "stack": stack.to_dict(), "lobes": lobes}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _partial_path(name: str, quick: bool) -> Path:
+    return PARTIAL_DIR / ("quick" if quick else "full") / f"{name}.json"
+
+
+def load_partial(name: str, s: Settings, quick: bool) -> dict | None:
+    """The stored measurements of stack ``name`` if their fingerprint matches, else None."""
+    path = _partial_path(name, quick)
+    if not path.exists():
+        return None
+    stored = json.loads(path.read_text())
+    return stored["row"] if stored.get("fingerprint") == fingerprint(name, s) else None
+
+
+def save_partial(row: dict, s: Settings, quick: bool) -> None:
+    path = _partial_path(row["stack"], quick)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"fingerprint": fingerprint(row["stack"], s), "row": row}))
+    tmp.replace(path)
+
+
 # ---------------------------------------------------------------- cost sweeps
 def _coats_stack(n: int) -> Stack:
     coat = {"type": "coat", "ior": 1.5, "roughness": 0.05}
@@ -242,18 +291,30 @@ def equal_time(row: dict, ours: str = "osl auto", metric: str = "rmse") -> dict 
 
 
 # ---------------------------------------------------------------- the run
-def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bool = True) -> Path:
+def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bool = True,
+        resume: bool = False) -> Path:
+    """Every stack's curves and the cost sweeps, then the page. ``resume``: a stack whose stored
+    measurements still match (``load_partial``) is not rendered again."""
     import bpy  # noqa: F401  (the renders)
     from tqdm import tqdm
 
     s = QUICK if quick else FULL
     if cases:
         s = Settings(**{**s.__dict__, "cases": tuple(cases)})
-    n_renders = len(s.cases) * (sum(len(s.brute_ladder if v.engine == "reference" else s.ladder) for v in s.variants)
-                                + len(s.ladder))
-    n_renders += (len(s.coats) + len(s.depths)) * len(COST_VARIANTS)
+    stored = {name: load_partial(name, s, quick) for name in s.cases} if resume else {}
+    todo = [name for name in s.cases if stored.get(name) is None]
+    per_stack = sum(len(s.brute_ladder if v.engine == "reference" else s.ladder) for v in s.variants) + len(s.ladder)
+    n_renders = len(todo) * per_stack + (len(s.coats) + len(s.depths)) * len(COST_VARIANTS)
+    if resume:
+        print(f"pareto: {len(s.cases) - len(todo)} of {len(s.cases)} stacks measured already, {len(todo)} to render")
     with tqdm(total=n_renders, desc="pareto renders", disable=not progress, unit="render") as bar:
-        rows = [stack_curves(name, s, bar) for name in s.cases]
+        rows = []
+        for name in s.cases:
+            row = stored.get(name)
+            if row is None:
+                row = stack_curves(name, s, bar)
+                save_partial(row, s, quick)
+            rows.append(row)
         coats = cost_sweep([(n, _coats_stack(n)) for n in s.coats], s, bar)
         depths = cost_sweep([(d, _depth_stack(d)) for d in s.depths], s, bar)
     data = {"settings": {"res": s.res, "ladder": s.ladder, "brute_ladder": s.brute_ladder, "cost_spp": s.cost_spp,
@@ -397,12 +458,14 @@ def _arguments(parser) -> None:
     cases_argument(parser)
     parser.add_argument("--quick", action="store_true", help="one scattering stack, 32 px, two sample counts")
     parser.add_argument("--replot", action="store_true", help="tables and plots again from the stored pareto.json")
+    parser.add_argument("--resume", action="store_true",
+                        help="reuse each stack's measurements kept by an earlier run (cache/pareto) while they match")
 
 
 def _bench(out_dir: Path, args) -> Path:
     if args.replot:
         return rewrite(out_dir, quick=args.quick)
-    return run(out_dir, quick=args.quick, cases=args.cases or None)
+    return run(out_dir, quick=args.quick, cases=args.cases or None, resume=args.resume)
 
 
 BENCH = register(Bench("pareto", "run time against error for every way a stack renders; cost against stack size",

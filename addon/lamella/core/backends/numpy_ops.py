@@ -81,6 +81,8 @@ def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
     coords = np.broadcast_arrays(*coords)
     shape = coords[0].shape
     table = np.ascontiguousarray(table)
+    if coords[0].size == 1:  # one point (a model run for one direction): the same sums on scalars
+        return np.asarray(_multilinear_point(table, [c.reshape(()) for c in coords], dtype), dtype=dtype).reshape(shape)
     strides = [s // table.itemsize for s in table.strides]
     base = np.zeros(shape, dtype=np.int64)
     w = np.ones((1,) + shape, dtype=dtype)
@@ -94,3 +96,25 @@ def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
         offsets = np.concatenate([offsets, offsets + stride])
     corners = table.reshape(-1).take(base[None] + offsets.reshape((-1,) + (1,) * len(shape)))
     return (w * corners).sum(0, dtype=dtype)
+
+
+def _multilinear_point(table: np.ndarray, coords, dtype):
+    """``_multilinear`` at one point, in scalars of ``dtype`` (the same operations in the same
+    order, without the arrays' overhead: a look-up is most of a one-direction model run)."""
+    scalar = np.dtype(dtype).type
+    one = scalar(1)
+    flat = table.reshape(-1)
+    base = 0
+    ws = [one]
+    offsets = [0]
+    for c, n, stride in zip(coords, table.shape, (s // table.itemsize for s in table.strides)):
+        x = scalar(min(max(c[()], 0.0), 1.0)) * (n - 1)
+        i = min(int(np.floor(x)), n - 2)
+        base += i * stride
+        f = (x - i).astype(dtype)
+        ws = [w * (one - f) for w in ws] + [w * f for w in ws]
+        offsets = offsets + [o + stride for o in offsets]
+    total = scalar(0)
+    for w, o in zip(ws, offsets):
+        total = total + w * flat[base + o]
+    return total

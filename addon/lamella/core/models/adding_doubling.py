@@ -53,6 +53,7 @@ from dataclasses import dataclass
 from . import film
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction, trapped_escape
+from .ggx import alpha_of_projected_width
 from .hg import belcour_variance_of_g
 from .rgb import RGB
 from .roughness import MAPPINGS, BelcourMapping
@@ -370,15 +371,13 @@ def _saturated(ops, a, c, c_in, n, k):
     roughness a_in = a c / (n c_in), scaled by the refraction's Jacobian n c_in / c. A GGX lobe's
     projected width is 2 alpha sqrt(c^2 + k alpha^2) (2 alpha c to first order), and the refraction
     scales the inner lobe's by n: alpha^2 (c^2 + k alpha^2) = b, b = n^2 a_in^2 (c_in^2 + k a_in^2),
-    alpha^2 = 2 b / (sqrt(c^4 + 4 k b) + c^2) (the root of the quadratic in the form that does not
-    cancel). Never wider than ``a`` (for n >= 1; the minimum holds it under rounding), narrower
-    toward grazing, the same for a narrow lobe at normal incidence.
+    alpha^2 = 2 b / (sqrt(c^4 + 4 k b) + c^2) (``ggx.alpha_of_projected_width``). Never wider than
+    ``a`` (for n >= 1; the minimum holds it under rounding), narrower toward grazing, the same for a narrow lobe at normal incidence.
     (Where the model's roughness is capped at 1, within a few degrees of the horizon, a_in
     underestimates the inner lobe and the lobe narrows again; its weight vanishes there.)"""
     a_in = a * c / ops.max(n * c_in, COS_FLOOR)
     b = n * n * a_in * a_in * (c_in * c_in + k * a_in * a_in)
-    c2 = c * c
-    return ops.min(ops.sqrt(2.0 * b / ops.max(ops.sqrt(c2 * c2 + 4.0 * k * b) + c2, 1e-30)), a)
+    return ops.min(alpha_of_projected_width(ops, b, c, k), a)
 
 
 def _at_least(ops, d: RGB, bound: RGB) -> RGB:

@@ -61,3 +61,13 @@ def ggx_lobe_cos(ops, wi, wo, ax, ay, cos_r, sin_r):
     s_o = smith_s(ops, ozp, projected_alpha2(ax, ay, lox, loy))
     den = ops.max(2.0 * (ozp * s_i + iz * s_o), 1e-30)
     return ops.select(oz > 0.0, d * ozp / den, 0.0)
+
+
+def alpha_of_projected_width(ops, b, c, k):
+    """The roughness alpha of the GGX reflection lobe whose width projected on the surface at view
+    cosine ``c`` is 2 sqrt(b), with the projected width modelled as 2 alpha sqrt(c^2 + k alpha^2)
+    (first order 2 alpha c; ``k`` > 0 narrows broad lobes toward grazing, where the horizon cuts
+    them): alpha^2 = 2 b / (sqrt(c^4 + 4 k b) + c^2), the root of alpha^2 (c^2 + k alpha^2) = b in
+    the form that does not cancel."""
+    c2 = c * c
+    return ops.sqrt(2.0 * b / ops.max(ops.sqrt(c2 * c2 + 4.0 * k * b) + c2, 1e-30))

@@ -1,0 +1,111 @@
+"""The transfer-matrix model's forward-scattered family, round in angle about its direction in the
+medium that scattered it (``transfer_matrix``, ``TransferMatrix.round_forward``): along the plane
+of incidence its lobe keeps the family's roughness, across it the roughness as wide, projected,
+at the cosine of the mean direction in that medium; its axes turn with the view; normal incidence, the energies and
+stacks with an anisotropic interface are as before; finite toward grazing in float32."""
+import numpy as np
+import pytest
+
+import lamella.core as lc
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.models.ggx import alpha_of_projected_width
+from lamella.core.models.transfer_matrix import FORWARD_SATURATION, TransferMatrix
+
+from .stacks import coat, gold, stack
+
+def medium(ior, roughness, thickness, sigma_s, g, sigma_a=(0.0, 0.0, 0.0)):
+    return dict(coat(ior, roughness, thickness=thickness, sigma_a=sigma_a), sigma_s=list(sigma_s), g=g)
+
+
+ROUND = TransferMatrix("tm6", six_flux=True)
+PLAIN = TransferMatrix("tm6", six_flux=True, round_forward=False)
+FOG = stack(medium(1.0, 0.0, 1.0, (0.5, 0.5, 0.5), 0.9), base=gold(0.02))
+MILKY = stack(medium(1.5, 0.05, 0.4, (2.0, 1.5, 1.0), 0.7, sigma_a=(0.1, 0.2, 0.4)), base=gold(0.1))
+
+
+def directions(thetas_deg, phi=0.0):
+    t = np.radians(np.asarray(thetas_deg, dtype=float))
+    return np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.cos(t)], -1)
+
+
+def _changed(a, b):
+    """Indices of the lobes whose across roughness ``a`` changed against ``b``."""
+    return np.flatnonzero(np.any(np.abs(a.alpha_y - b.alpha_y) > 1e-12, axis=0))
+
+
+def test_tm6_is_the_round_forward_model():
+    from lamella.core import models
+
+    assert models.get("tm6").round_forward
+
+
+@pytest.mark.parametrize("d", [FOG, MILKY])
+def test_normal_incidence_and_energies_are_unchanged(d):
+    wi = directions([0.0, 30.0, 60.0, 80.0], phi=0.7)
+    a, b = lc.lobes(d, wi, ROUND), lc.lobes(d, wi, PLAIN)
+    np.testing.assert_array_equal(a.weight, b.weight)
+    np.testing.assert_array_equal(a.alpha_x, b.alpha_x)  # along the plane: the family's roughness
+    np.testing.assert_allclose(a.alpha_y[0], b.alpha_y[0], rtol=1e-12)  # at normal incidence: round
+
+
+@pytest.mark.parametrize("d,ior", [(FOG, 1.0), (MILKY, 1.5)])
+@pytest.mark.parametrize("theta", [30.0, 60.0, 75.0])
+def test_across_the_plane_the_roughness_over_the_mediums_cosine(d, ior, theta):
+    """One lobe per scattering coat changes: the forward family's, across the plane of incidence
+    the roughness whose projected width at cos(theta_t) is the lobe's at normal incidence (theta_t
+    the mean direction's angle in the coat; alpha / cos(theta_t) to first order, narrower as the
+    horizon nears), its axis the view's azimuth."""
+    phi = 0.4
+    wi = directions([theta], phi=phi)
+    a, b = lc.lobes(d, wi, ROUND), lc.lobes(d, wi, PLAIN)
+    (j,) = _changed(a, b)
+    alpha, across = b.alpha_x[0, j], a.alpha_y[0, j]
+    c = np.sqrt(1.0 - (np.sin(np.radians(theta)) / ior) ** 2)
+    k = FORWARD_SATURATION
+    assert across ** 2 * (c * c + k * across ** 2) == pytest.approx(alpha ** 2 * (1.0 + k * alpha ** 2), rel=1e-9)
+    assert alpha < across <= alpha / c
+    assert a.rotation[0, j] == pytest.approx(phi, abs=1e-12)
+
+
+def test_first_order_for_a_narrow_family():
+    """A narrow forward lobe (a thin, strongly forward-scattering fog) is alpha / cos across."""
+    ops = NumpyOps(np.float64)
+    for c in (1.0, 0.8, 0.5, 0.3):
+        a = 1e-4
+        b = a * a * (1.0 + FORWARD_SATURATION * a * a)
+        assert alpha_of_projected_width(ops, b, c, FORWARD_SATURATION) == pytest.approx(a / c, rel=1e-4)
+
+
+def test_the_lobe_turns_with_the_view():
+    """An isotropic stack: the view turned about the normal turns the lobe's axes with it and
+    changes nothing else."""
+    wi = directions([60.0, 60.0, 60.0], phi=np.array([0.0, 1.0, 2.5]))
+    lb = lc.lobes(FOG, wi, ROUND)
+    for name in ("weight", "alpha_x", "alpha_y"):
+        np.testing.assert_allclose(getattr(lb, name)[1:], np.broadcast_to(getattr(lb, name)[:1], getattr(lb, name)[1:].shape),
+                                   rtol=1e-12)
+    (k,) = _changed(lb, lc.lobes(FOG, wi, PLAIN))
+    np.testing.assert_allclose(lb.rotation[:, k], [0.0, 1.0, 2.5], atol=1e-12)
+
+
+def test_stacks_with_an_anisotropic_interface_keep_round_lobes():
+    """There the lobes' axes would turn with the view against the interfaces' (staged tables would
+    need the azimuth): the forward family stays round."""
+    d = stack(medium(1.5, [0.1, 0.02], 0.5, (1.0, 1.0, 1.0), 0.8), base=gold(0.1))
+    wi = directions([0.0, 45.0, 70.0], phi=0.3)
+    a, b = lc.lobes(d, wi, ROUND), lc.lobes(d, wi, PLAIN)
+    for name in ("weight", "alpha_x", "alpha_y", "rotation"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_finite_and_bounded_to_the_horizon(dtype):
+    wi = directions([80.0, 89.0, 89.9, 90.0], phi=1.1)
+    for d in (FOG, MILKY):
+        lb = lc.lobes(d, wi, ROUND, dtype=dtype)
+        for name in ("weight", "alpha_x", "alpha_y", "rotation"):
+            assert np.isfinite(getattr(lb, name)).all(), name
+        assert (lb.alpha_y <= 1.0).all() and (lb.alpha_y >= 0.0).all()
+        wo = directions([85.0, 60.0, 30.0, 0.0], phi=1.1 + np.pi)
+        f = lc.evaluate(d, wi, wo, ROUND, dtype=dtype)
+        assert np.isfinite(f).all() and (f >= 0).all()
