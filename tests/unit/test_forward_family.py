@@ -13,6 +13,7 @@ from lamella.core.models.transfer_matrix import FORWARD_SATURATION, TransferMatr
 
 from .stacks import coat, gold, stack
 
+
 def medium(ior, roughness, thickness, sigma_s, g, sigma_a=(0.0, 0.0, 0.0)):
     return dict(coat(ior, roughness, thickness=thickness, sigma_a=sigma_a), sigma_s=list(sigma_s), g=g)
 
@@ -67,6 +68,23 @@ def test_across_the_plane_the_roughness_over_the_mediums_cosine(d, ior, theta):
     assert a.rotation[0, j] == pytest.approx(phi, abs=1e-12)
 
 
+def test_the_cosine_is_the_scattering_coats_for_light_reflected_below_it():
+    """A scattering coat (index 1.5) over a clear coat of index 2: the forward light the clear
+    coat's interface and the base send back was scattered in the upper coat, and its lobe is
+    round in angle there, at the cosine of that coat, not of the clear coat it is reflected in."""
+    d = stack(medium(1.5, 0.05, 0.4, (2.0, 1.5, 1.0), 0.7), coat(2.0, 0.05), base=gold(0.1))
+    theta = 60.0
+    wi = directions([theta], phi=0.2)
+    a, b = lc.lobes(d, wi, ROUND), lc.lobes(d, wi, PLAIN)
+    changed = _changed(a, b)
+    assert len(changed) >= 2  # the coat's own forward light and what the layers below send back
+    c = np.sqrt(1.0 - (np.sin(np.radians(theta)) / 1.5) ** 2)
+    k = FORWARD_SATURATION
+    for j in changed:
+        alpha, across = b.alpha_x[0, j], a.alpha_y[0, j]
+        assert across ** 2 * (c * c + k * across ** 2) == pytest.approx(alpha ** 2 * (1.0 + k * alpha ** 2), rel=1e-9), j
+
+
 def test_first_order_for_a_narrow_family():
     """A narrow forward lobe (a thin, strongly forward-scattering fog) is alpha / cos across."""
     ops = NumpyOps(np.float64)
@@ -99,13 +117,16 @@ def test_stacks_with_an_anisotropic_interface_keep_round_lobes():
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-def test_finite_and_bounded_to_the_horizon(dtype):
-    wi = directions([80.0, 89.0, 89.9, 90.0], phi=1.1)
+def test_finite_and_bounded_from_normal_incidence_to_the_horizon(dtype):
+    """At normal incidence the view's azimuth is atan2(0, 0) = 0 and the lobe round; toward the
+    horizon the across roughness is capped: finite, non-negative values in both precisions."""
+    wi = directions([0.0, 80.0, 89.0, 89.9, 90.0], phi=1.1)
     for d in (FOG, MILKY):
         lb = lc.lobes(d, wi, ROUND, dtype=dtype)
         for name in ("weight", "alpha_x", "alpha_y", "rotation"):
             assert np.isfinite(getattr(lb, name)).all(), name
         assert (lb.alpha_y <= 1.0).all() and (lb.alpha_y >= 0.0).all()
-        wo = directions([85.0, 60.0, 30.0, 0.0], phi=1.1 + np.pi)
+        np.testing.assert_allclose(lb.alpha_y[0], lb.alpha_x[0], rtol=1e-6)
+        wo = directions([30.0, 85.0, 60.0, 30.0, 0.0], phi=1.1 + np.pi)
         f = lc.evaluate(d, wi, wo, ROUND, dtype=dtype)
         assert np.isfinite(f).all() and (f >= 0).all()

@@ -205,3 +205,23 @@ def test_every_file_holds_its_atlas_above_its_mirror_image():
     assert luts.LAYOUT_MARK in header and header.count("/ (2 * rows)") == 2
     with pytest.raises(ValueError, match="layout"):
         luts.from_file(np.arange(6.0).reshape(3, 2))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("shape", [(17, 9), (17, 13, 5)])
+def test_a_one_point_look_up_is_a_lane_of_a_batched_one(dtype, shape):
+    """A one-direction model run reads its tables one point at a time (``numpy_ops``'s scalar
+    path): the same bits as that point among others, clamping outside [0, 1] and the top node
+    included, in float32 and float64."""
+    from lamella.core.backends.numpy_ops import _multilinear
+
+    rng = np.random.default_rng(3)
+    table = rng.uniform(-1.0, 2.0, shape).astype(dtype)
+    edges = np.array([-0.3, 0.0, 1.0, 1.4, 0.5], dtype=dtype)
+    points = np.concatenate([rng.uniform(-0.2, 1.2, (400, len(shape))),
+                             np.stack(np.meshgrid(*[edges] * len(shape)), -1).reshape(-1, len(shape))]).astype(dtype)
+    batched = _multilinear(table, [points[:, k] for k in range(len(shape))], dtype)
+    for p, want in zip(points, batched):
+        got = _multilinear(table, [np.array([x], dtype=dtype) for x in p], dtype)
+        assert got.dtype == dtype and got.shape == (1,)
+        assert got[0] == want, (p, got[0], want)

@@ -24,14 +24,14 @@ def _row(name=CASE):
 def test_kept_measurements_round_trip(partial_dir):
     s = dataclasses.replace(pareto.QUICK, cases=(CASE,))
     assert pareto.load_partial(CASE, s, quick=True) is None
-    pareto.save_partial(_row(), s, quick=True)
+    pareto.save_partial(_row(), pareto.fingerprint(CASE, s), quick=True)
     assert pareto.load_partial(CASE, s, quick=True) == _row()
     assert pareto.load_partial(CASE, s, quick=False) is None  # the full run keeps its own
 
 
 def test_other_settings_or_model_do_not_match(partial_dir, monkeypatch):
     s = dataclasses.replace(pareto.QUICK, cases=(CASE,))
-    pareto.save_partial(_row(), s, quick=True)
+    pareto.save_partial(_row(), pareto.fingerprint(CASE, s), quick=True)
     assert pareto.load_partial(CASE, dataclasses.replace(s, ladder=(4, 16, 64)), quick=True) is None
     assert pareto.load_partial(CASE, dataclasses.replace(s, res=64), quick=True) is None
     # a model whose lobes differ (here: every roughness halved) makes another fingerprint
@@ -44,6 +44,11 @@ def test_other_settings_or_model_do_not_match(partial_dir, monkeypatch):
         return dataclasses.replace(lb, alpha_x=lb.alpha_x * 0.5)
 
     before = pareto.fingerprint(CASE, s)
+    monkeypatch.setattr(pareto, "load_index", lambda: {"cases": {CASE: {"spp": 1, "noise_rmse": 0.5, "res": 128}}})
+    assert pareto.fingerprint(CASE, s) != before  # another stored reference
+    monkeypatch.undo()
+    monkeypatch.setattr(pareto, "PARTIAL_DIR", partial_dir)
+    assert pareto.fingerprint(CASE, s) == before
     monkeypatch.setattr(api, "lobes", halved)
     assert pareto.fingerprint(CASE, s) != before
     assert pareto.load_partial(CASE, s, quick=True) is None
@@ -51,7 +56,7 @@ def test_other_settings_or_model_do_not_match(partial_dir, monkeypatch):
 
 def test_resume_renders_only_what_is_missing(partial_dir, monkeypatch, tmp_path):
     s = dataclasses.replace(pareto.QUICK, cases=("gold_coated", "fog_g09_d1"))
-    pareto.save_partial(_row("gold_coated"), s, quick=True)
+    pareto.save_partial(_row("gold_coated"), pareto.fingerprint("gold_coated", s), quick=True)
     rendered = []
 
     def curves(name, settings, bar=None):

@@ -26,9 +26,9 @@ own noise (``noise_rmse`` in its index) is a floor no variant can go under. From
   where its ladder does not reach it).
 
 The full run renders for 1.5 to 4 hours. Each stack's measurements are kept as they finish
-(``cache/pareto/<case>.json`` in the repository, with a fingerprint of the settings, the stack and
-the model's lobes at five incidences); ``--resume`` reuses the ones whose fingerprint still
-matches, so an interrupted run goes on where it stopped and spans sessions.
+(``cache/pareto/{full,quick}/<case>.json`` in the repository, with a fingerprint, ``fingerprint``);
+``--resume`` reuses the ones whose fingerprint still matches, so an interrupted run renders only
+the stacks it had not finished (and the cost sweeps, a few minutes, which are never kept).
 
 ``--quick`` (what the test suite runs): one scattering stack at 32 px against its reference averaged
 down, two sample counts, each cost sweep at one size (eight coats; optical depth 4).
@@ -163,12 +163,17 @@ PARTIAL_DIR = REPO / "cache" / "pareto"
 
 
 def fingerprint(name: str, s: Settings) -> str:
-    """What a stack's stored measurements depend on: the settings, the stack and ``auto``'s lobes
-    (energies and roughnesses at 0 to 75 degrees), hashed. A change of the model changes it; a
-    change of the renderer alone does not (``--resume`` is asked for, never implied)."""
+    """What a stack's stored measurements depend on, hashed: the settings, the stack, ``auto``'s
+    lobes (energies and roughnesses at 0 to 75 degrees), the stored reference (its index entry and
+    its file's bytes) and Blender's version. Not in it: the code that turns lobes into a shader
+    (staging, the emitters, the node groups) and the machine, whose speed the time ratios do not
+    depend on; after a change there, run without ``--resume`` (it is asked for, never implied)."""
+    import bpy
+
     from lamella.core import api
 
     stack = suite.load(name)
+    reference = hashlib.sha256((IMAGE_REFERENCE_DIR / f"{name}.exr").read_bytes()).hexdigest()
     lobes = []
     for deg in (0.0, 30.0, 45.0, 60.0, 75.0):
         lb = api.lobes(stack, suite.incident(deg))
@@ -176,7 +181,8 @@ def fingerprint(name: str, s: Settings) -> str:
                                          for x in (lb.weight, lb.alpha_x, lb.alpha_y, lb.rotation)])
     settings = {"res": s.res, "ladder": s.ladder, "brute_ladder": s.brute_ladder,
                 "variants": [(v.label, v.engine, str(v.budget)) for v in s.variants], "pixels": PIXELS}
-    text = json.dumps({"settings": settings, "stack": stack.to_dict(), "lobes": lobes}, sort_keys=True)
+    text = json.dumps({"settings": settings, "stack": stack.to_dict(), "lobes": lobes, "reference": reference,
+                       "index": load_index()["cases"].get(name), "blender": list(bpy.app.version)}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -193,11 +199,12 @@ def load_partial(name: str, s: Settings, quick: bool) -> dict | None:
     return stored["row"] if stored.get("fingerprint") == fingerprint(name, s) else None
 
 
-def save_partial(row: dict, s: Settings, quick: bool) -> None:
+def save_partial(row: dict, stamp: str, quick: bool) -> None:
+    """Keep one stack's measurements under ``stamp``, its ``fingerprint`` taken before it rendered."""
     path = _partial_path(row["stack"], quick)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"fingerprint": fingerprint(row["stack"], s), "row": row}))
+    tmp.write_text(json.dumps({"fingerprint": stamp, "row": row}))
     tmp.replace(path)
 
 
@@ -312,8 +319,9 @@ def run(out_dir: Path = BENCH_DIR, quick: bool = False, cases=None, progress: bo
         for name in s.cases:
             row = stored.get(name)
             if row is None:
+                stamp = fingerprint(name, s)
                 row = stack_curves(name, s, bar)
-                save_partial(row, s, quick)
+                save_partial(row, stamp, quick)
             rows.append(row)
         coats = cost_sweep([(n, _coats_stack(n)) for n in s.coats], s, bar)
         depths = cost_sweep([(d, _depth_stack(d)) for d in s.depths], s, bar)

@@ -99,8 +99,10 @@ def _multilinear(table: np.ndarray, coords, dtype) -> np.ndarray:
 
 
 def _multilinear_point(table: np.ndarray, coords, dtype):
-    """``_multilinear`` at one point, in scalars of ``dtype`` (the same operations in the same
-    order, without the arrays' overhead: a look-up is most of a one-direction model run)."""
+    """``_multilinear`` at one point, in scalars of ``dtype``, without the arrays' overhead (a
+    look-up is most of a one-direction model run): the same operations in the same order as one
+    lane of a batched call, so a direction gets the same bits alone as among others. (Arrays of
+    one point summed their corners pairwise, which could differ in the last bit.)"""
     scalar = np.dtype(dtype).type
     one = scalar(1)
     flat = table.reshape(-1)

@@ -372,7 +372,8 @@ def _saturated(ops, a, c, c_in, n, k):
     projected width is 2 alpha sqrt(c^2 + k alpha^2) (2 alpha c to first order), and the refraction
     scales the inner lobe's by n: alpha^2 (c^2 + k alpha^2) = b, b = n^2 a_in^2 (c_in^2 + k a_in^2),
     alpha^2 = 2 b / (sqrt(c^4 + 4 k b) + c^2) (``ggx.alpha_of_projected_width``). Never wider than
-    ``a`` (for n >= 1; the minimum holds it under rounding), narrower toward grazing, the same for a narrow lobe at normal incidence.
+    ``a`` (for n >= 1; the minimum holds it under rounding), narrower toward grazing, the same for
+    a narrow lobe at normal incidence.
     (Where the model's roughness is capped at 1, within a few degrees of the horizon, a_in
     underestimates the inner lobe and the lobe narrows again; its weight vanishes there.)"""
     a_in = a * c / ops.max(n * c_in, COS_FLOOR)
