@@ -44,3 +44,18 @@ def test_the_readings_quote_the_rows_they_read():
     darker = [100.0 * (1.0 - x) for x in row["ratio"]]
     reading = albedo_controls.format_markdown(data).split("Reading it:")[1]
     assert f"alpha 0.2 both: {min(darker):.0f}-{max(darker):.0f} %" in reading
+
+
+def test_the_image_pages_are_what_the_image_bench_writes_with_its_noise_control():
+    """bench/images.md and images_multiple.md from their stored rows and the references' index,
+    the noise control (the brute-force renderer at the same samples) on every case."""
+    from lamella_dev.bench import images
+    from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR, IMAGE_REFERENCE_DIR_MULTIPLE, load_index
+
+    for stem, ref_dir in (("images", IMAGE_REFERENCE_DIR), ("images_multiple", IMAGE_REFERENCE_DIR_MULTIPLE)):
+        data = _stored(stem)
+        page = images.format_markdown(data["rows"], load_index(ref_dir), data["spp"], data["interfaces"])
+        assert (BENCH_DIR / f"{stem}.md").read_text() == page.rstrip("\n") + "\n"
+        cases = {r["case"] for r in data["rows"]}
+        assert {r["case"] for r in data["rows"] if r["engine"] == images.BRUTE_FORCE} == cases
+        assert "## Noise against model error" in page

@@ -25,6 +25,11 @@ from .registry import Bench, cases_argument, register
 SPP = 64
 BUDGET = "auto"  # the lobe budget of our shaders here: the default an artist gets
 ENGINES = ("cycles-osl", "principled", "eevee", "eevee-principled")
+# The noise control: the shader again at many samples (its own noise gone, the model's error and the
+# reference's noise left), and the brute-force renderer itself at SPP (noise alone, no model error).
+CONVERGED_SPP = 512
+CONVERGED = "cycles-osl-converged"
+BRUTE_FORCE = "brute-force"
 
 
 def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget=BUDGET):
@@ -38,6 +43,17 @@ def render_case(name: str, engine: str, spp: int = SPP, res: int = RES, budget=B
     assign_material(sphere, suite.load(name), engine, budget=budget)
     render_scene(sc)
     return render_scene(sc)
+
+
+def brute_force_case(name: str, meta: dict, spp: int = SPP, res: int = RES):
+    """(image, seconds): the nested-sphere renderer that made the stored reference, at ``spp``
+    samples with a seed the reference did not use (the same seed would repeat its first samples),
+    its shells and interfaces as recorded in the reference's index entry ``meta``."""
+    from ..render import render_stack
+
+    return render_stack(suite.load(name), "sphere-env", res=res, spp=spp, engine="reference",
+                        seed=max(meta["seeds"]) + 1, thickness=meta["shell_thickness"],
+                        interfaces=meta.get("interfaces", "single"))
 
 
 def compare_case(name: str, engine: str, spp: int = SPP, ref_dir: Path = IMAGE_REFERENCE_DIR, budget=BUDGET):
@@ -77,11 +93,13 @@ def comparison_png(path: Path, name: str, images: dict, ref: np.ndarray, figures
 
 
 def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = IMAGE_REFERENCE_DIR,
-        progress=print, interfaces: str = "single") -> tuple[Path, Path]:
+        progress=print, interfaces: str = "single", converged_spp: int = CONVERGED_SPP) -> tuple[Path, Path]:
     """Every case of ``cases`` (default: every suite stack; with ``interfaces="multiple"``, every
     case stored in the energy-conserving set) against the references of ``interfaces``: the
     single-scattering set writes ``bench/images.md``, the energy-conserving one
-    (``tests/references/images_multiple``) ``bench/images_multiple.md``."""
+    (``tests/references/images_multiple``) ``bench/images_multiple.md``. Beside the engines, the
+    noise control: the OSL shader at ``converged_spp`` (0: left out) and the brute-force renderer at
+    ``spp``."""
     from ..plots import contact_sheet
     from .image_references import IMAGE_REFERENCE_DIR_MULTIPLE
 
@@ -101,7 +119,16 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
             figures[engine], images[engine] = f, img
             rows.append(f)
             progress(f"{name} {engine}: {f['seconds']:.1f} s, RMSE {f['rmse']:.4f}, ΔE00 {f['delta_e00']:.2f}")
-        vs_osl = image_errors(images["eevee"], images["cycles-osl"], sphere_mask(ref))
+        mask, meta = sphere_mask(ref), index["cases"][name]
+        img, seconds = brute_force_case(name, meta, spp, ref.shape[0])
+        rows.append({**image_errors(img, ref, mask), "case": name, "engine": BRUTE_FORCE, "spp": spp,
+                     "seconds": round(seconds, 2)})
+        if converged_spp:
+            f, _, _ = compare_case(name, "cycles-osl", converged_spp, ref_dir)
+            rows.append({**f, "engine": CONVERGED})
+        progress(f"{name} noise control: brute force at {spp} spp ΔE00 {rows[-1 - bool(converged_spp)]['delta_e00']:.2f}"
+                 + (f", ours at {converged_spp} spp ΔE00 {rows[-1]['delta_e00']:.2f}" if converged_spp else ""))
+        vs_osl = image_errors(images["eevee"], images["cycles-osl"], mask)
         figures["eevee"]["vs_osl"] = {k: vs_osl[k] for k in ("rmse", "rmse_8px", "mean_bias", "delta_e00", "flip")}
         comparison_png(Path(out_dir) / stem / f"{name}.png", name, images, ref, figures,
                        index["cases"][name]["spp"])
@@ -111,7 +138,8 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
     contact_sheet(sheet, Path(out_dir) / stem / "contact_sheet.png", captions, ncols=4,
                   title="Generated OSL shader (ours) next to the brute-force reference, canonical sphere-env")
     mpath = write_page(out_dir, stem, lambda: format_markdown(rows, index, spp, interfaces),
-                       {"spp": spp, "res": RES, "budget": BUDGET, "interfaces": interfaces, "rows": rows})
+                       {"spp": spp, "res": RES, "budget": BUDGET, "interfaces": interfaces,
+                        "converged_spp": converged_spp, "rows": rows})
     return mpath, mpath.with_suffix(".json")
 
 
@@ -156,6 +184,32 @@ def format_markdown(rows: list[dict], index: dict, spp: int, interfaces: str = "
         mean = lambda k: float(np.mean([abs(r[k]) for r in rs]))  # noqa: E731
         lines.append(f"| {e} | {mean('seconds'):.1f} | {mean('rmse'):.4f} | {mean('rmse_8px'):.4f} | "
                      f"{mean('mean_bias'):.3f} | {mean('delta_e00'):.2f} | {mean('flip'):.3f} |")
+    by = {(r["case"], r["engine"]): r for r in rows}
+    noisy = [c for c, e in by if e == BRUTE_FORCE]
+    if noisy:
+        conv = next((r["spp"] for r in rows if r["engine"] == CONVERGED), None)
+        lines += ["", "## Noise against model error (the noise control)", "",
+                  "ΔE00 is not linear in the error: per-pixel noise alone raises it. `brute force` is the renderer "
+                  f"that made the reference, at the same {spp} spp with a seed the reference did not use, against it: "
+                  "it has no model error, so its ΔE00 is what the two renders' noise costs. `reference noise` "
+                  "estimates the part of that which is the reference's own (its noise is sqrt(spp / ref spp) of the "
+                  "brute force's; ΔE00 taken as proportional to the noise, which holds where noise dominates it)."
+                  + (f" `ours at {conv} spp` is the OSL shader with its own noise gone: its ΔE00 is the model's error "
+                     "and the reference's noise." if conv else ""), "",
+                  f"| case | ref spp | ours at {spp} spp | brute force at {spp} spp (noise alone) | reference noise |"
+                  + (f" ours at {conv} spp |" if conv else ""),
+                  "|---|---:|---:|---:|---:|" + ("---:|" if conv else "")]
+
+        def ref_noise(c):
+            return by[(c, BRUTE_FORCE)]["delta_e00"] * float(np.sqrt(spp / (spp + index["cases"][c]["spp"])))
+
+        for c in noisy:
+            lines.append(f"| {c} | {index['cases'][c]['spp']} | {by[(c, 'cycles-osl')]['delta_e00']:.2f} | "
+                         f"{by[(c, BRUTE_FORCE)]['delta_e00']:.2f} | {ref_noise(c):.2f} |"
+                         + (f" {by[(c, CONVERGED)]['delta_e00']:.2f} |" if conv else ""))
+        mean = lambda e: float(np.mean([by[(c, e)]["delta_e00"] for c in noisy]))  # noqa: E731
+        lines.append(f"| **mean** | | {mean('cycles-osl'):.2f} | {mean(BRUTE_FORCE):.2f} | "
+                     f"{float(np.mean([ref_noise(c) for c in noisy])):.2f} |" + (f" {mean(CONVERGED):.2f} |" if conv else ""))
     ev = [r for r in rows if r["engine"] == "eevee" and "vs_osl" in r]
     if ev:
         lines += ["", "## EEVEE against the Cycles OSL render of the same stack", "",
@@ -178,9 +232,12 @@ def _arguments(parser) -> None:
     parser.add_argument("--interfaces", choices=["single", "multiple"], default="single",
                         help="against the single-scattering references (bench/images.md) or the energy-conserving "
                              "ones (tests/references/images_multiple, bench/images_multiple.md)")
+    parser.add_argument("--converged-spp", type=int, default=CONVERGED_SPP,
+                        help="samples of the noise control's second OSL render (0: leave it out)")
 
 
 BENCH = register(Bench("images",
                        "each suite stack's shader, node group and Principled stand-in against the image references",
-                       lambda out_dir, args: run(args.cases or None, out_dir=out_dir, interfaces=args.interfaces)[0],
+                       lambda out_dir, args: run(args.cases or None, out_dir=out_dir, interfaces=args.interfaces,
+                                                 converged_spp=args.converged_spp)[0],
                        _arguments))

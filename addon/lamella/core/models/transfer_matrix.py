@@ -482,12 +482,14 @@ def _medium(ops, p, mu, n: int):
         t = sig_a.map(lambda s: ops.exp(-s * h))
         return Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n))
     sig_s, g = p["sigma_s"], p["g"]
-    e = [slab(ops, sa, ss, g, h) for sa, ss in zip(sig_a, sig_s)]
-    a = [slab(ops, sa, ss, g, h, asymmetry=True) for sa, ss in zip(sig_a, sig_s)]
+    m = ops.max(mu, COS_FLOOR)  # the scattered light absorbs along its longer paths (``path_lengthening``)
+    e = [slab(ops, sa, ss, g, h, mu=m) for sa, ss in zip(sig_a, sig_s)]
+    a = [slab(ops, sa, ss, g, h, asymmetry=True, mu=m) for sa, ss in zip(sig_a, sig_s)]
 
     def comp(parts):
         tpp, r, t = (RGB(*(x[k] for x in parts)) for k in range(3))
-        td = {(P, P): tpp, (F, P): t - tpp, (F, F): t, (B, B): t}
+        # the forward secondary's share, never below 0 (``homogeneous_medium``: the lengthened paths)
+        td = {(P, P): tpp, (F, P): (t - tpp).map(lambda x: ops.max(x, 0.0)), (F, F): t, (B, B): t}
         rt = {(B, P): r, (B, F): r, (F, B): r}
         return Component(rt, td, dict(rt), dict(td))
 
