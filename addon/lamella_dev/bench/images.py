@@ -121,13 +121,15 @@ def run(cases=None, spp: int = SPP, out_dir: Path = BENCH_DIR, ref_dir: Path = I
             progress(f"{name} {engine}: {f['seconds']:.1f} s, RMSE {f['rmse']:.4f}, ΔE00 {f['delta_e00']:.2f}")
         mask, meta = sphere_mask(ref), index["cases"][name]
         img, seconds = brute_force_case(name, meta, spp, ref.shape[0])
-        rows.append({**image_errors(img, ref, mask), "case": name, "engine": BRUTE_FORCE, "spp": spp,
-                     "seconds": round(seconds, 2)})
+        brute = {**image_errors(img, ref, mask), "case": name, "engine": BRUTE_FORCE, "spp": spp,
+                 "seconds": round(seconds, 2)}
+        rows.append(brute)
+        said = f"{name} noise control: brute force at {spp} spp ΔE00 {brute['delta_e00']:.2f}"
         if converged_spp:
             f, _, _ = compare_case(name, "cycles-osl", converged_spp, ref_dir)
             rows.append({**f, "engine": CONVERGED})
-        progress(f"{name} noise control: brute force at {spp} spp ΔE00 {rows[-1 - bool(converged_spp)]['delta_e00']:.2f}"
-                 + (f", ours at {converged_spp} spp ΔE00 {rows[-1]['delta_e00']:.2f}" if converged_spp else ""))
+            said += f", ours at {converged_spp} spp ΔE00 {f['delta_e00']:.2f}"
+        progress(said)
         vs_osl = image_errors(images["eevee"], images["cycles-osl"], mask)
         figures["eevee"]["vs_osl"] = {k: vs_osl[k] for k in ("rmse", "rmse_8px", "mean_bias", "delta_e00", "flip")}
         comparison_png(Path(out_dir) / stem / f"{name}.png", name, images, ref, figures,

@@ -488,7 +488,8 @@ def _medium(ops, p, mu, n: int):
 
     def comp(parts):
         tpp, r, t = (RGB(*(x[k] for x in parts)) for k in range(3))
-        # the forward secondary's share, never below 0 (``homogeneous_medium``: the lengthened paths)
+        # the forward secondary's share, bounded below by 0 (``homogeneous_medium``: with the
+        # lengthened paths T_KM can fall below T_pp)
         td = {(P, P): tpp, (F, P): (t - tpp).map(lambda x: ops.max(x, 0.0)), (F, F): t, (B, B): t}
         rt = {(B, P): r, (B, F): r, (F, B): r}
         return Component(rt, td, dict(rt), dict(td))
