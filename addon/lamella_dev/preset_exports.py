@@ -209,7 +209,7 @@ def compile_digest(stack, inputs=()) -> str:
     # as recompile.build_shader and material_nodes.install_group (the lobe budget's default "auto");
     # the table folder and the image name are placeholders: neither is part of what renders
     live = tuple(socket for socket, _ in inputs)
-    shader = osl_shader(stack, "auto", lut_dir="luts", live=live, budget="auto", engine_switch=True)
+    shader = osl_shader(stack, "auto", live=live, budget="auto", engine_switch=True, tables="inline")
     plan = emit_plan(stack, "auto", live=live, budget="auto", image="table", staged_ir=shader.staged)
     h = hashlib.sha256()
     h.update(f"layout {EXPORT_LAYOUT} luts {luts.LAYOUT}\n".encode())

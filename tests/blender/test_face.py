@@ -75,6 +75,9 @@ def test_a_texture_linked_once_reaches_every_engine(addon, engine, blender_engin
     _value_into(linked, api.input_socket(linked, 0, "roughness"), 0.6)
     got = _render_in(sc, blender_engine, osl)
     assert linked.lamella.live_params == "coat0_roughness"
+    # Cycles with OSL runs the shader: the tables its live part reads are in its source, no file
+    source = material_nodes.shader_source(linked)
+    assert source is not None and "float LUT_" in source and "lut_dir" not in source
     stack["layers"][0]["roughness"] = 0.36
     panel = new_material(sphere, "panel")
     api.apply_stack(panel, stack)

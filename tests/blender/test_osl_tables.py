@@ -1,7 +1,9 @@
 """OSL shaders read the look-up tables in this Blender as numpy does.
 
-A shader whose live part reads Lamella's look-up tables does so through OSL's ``texture()`` on the
-EXR files (``lamella/data/osl/lamella_luts.h``). Blender up to 5.0 read those through OpenImageIO, t = 0 at a
+An exported shader whose live part reads Lamella's look-up tables does so through OSL's
+``texture()`` on the EXR files (``lamella/data/osl/lamella_luts.h``); a Script node's shader in a
+.blend reads them from constant arrays in its source (``lamella/data/osl/lamella_arrays.h``), checked
+the same way. Blender up to 5.0 read those through OpenImageIO, t = 0 at a
 file's first row; from 5.1 Cycles reads them through its own image cache, t = 0 at the last row.
 The files hold each atlas above its mirror image so that both give the same values
 (``luts.to_file``). A probe shader reads every table at the coordinates of the shading point and
@@ -16,7 +18,7 @@ pytest.importorskip("bpy")
 
 from lamella.core import luts  # noqa: E402
 from lamella.core.backends.numpy_ops import _multilinear  # noqa: E402
-from lamella.core.backends.osl.emit import LUT_HEADER, OSL_DIR  # noqa: E402
+from lamella.core.backends.osl.emit import ARRAY_HEADER, LUT_HEADER, OSL_DIR, _float32_literals, table_array  # noqa: E402
 
 RES = 24
 TOLERANCE = 1e-4  # absolute, every table's values are within [-1, 1]
@@ -41,6 +43,24 @@ shader probe(string dir = "", output closure color BSDF = 0)
     float c1 = clamp(0.5 + 0.5 * P[2], 0.0, 1.0);
     float c2 = clamp(0.5 + 0.45 * sin(9.0 * c0 + 5.0 * c1), 0.0, 1.0);
     BSDF = color({expr}, c0, c1) * emission();
+}}
+"""
+
+
+def _array_source(name: str) -> str:
+    """The table ``name`` as the constant array a Script node's shader holds (``lamella_arrays.h``)."""
+    shape = luts.SPECS[name].shape
+    values = table_array(name)
+    dims = ", ".join(map(str, shape))
+    read = (f"lamella_arr2(T, 0, c0, c1, {dims})" if len(shape) == 2 else f"lamella_arr3(T, c0, c1, c2, {dims})")
+    return (OSL_DIR / ARRAY_HEADER).read_text() + f"""
+shader probe(string dir = "", output closure color BSDF = 0)
+{{
+    float T[{values.size}] = {{{", ".join(_float32_literals(values))}}};
+    float c0 = clamp(0.5 + 0.5 * P[0], 0.0, 1.0);
+    float c1 = clamp(0.5 + 0.5 * P[2], 0.0, 1.0);
+    float c2 = clamp(0.5 + 0.45 * sin(9.0 * c0 + 5.0 * c1), 0.0, 1.0);
+    BSDF = color({read}, c0, c1) * emission();
 }}
 """
 
@@ -86,17 +106,22 @@ def _c2(c0, c1):
     return np.clip(0.5 + 0.45 * np.sin(9.0 * c0 + 5.0 * c1), 0.0, 1.0)
 
 
+@pytest.mark.parametrize("source", ["files", "inline"])
 @pytest.mark.parametrize("name", sorted(READS))
-def test_osl_texture_reads_equal_numpy(addon, name):
+def test_osl_table_reads_equal_numpy(addon, name, source):
+    """Through ``texture()`` on the EXR files (an exported shader) and from the constant arrays a
+    Script node's shader carries in its source (a textured material in a .blend)."""
     shape = luts.SPECS[name].shape
-    expr = READS[name].format(**{f"n{k}": n for k, n in enumerate(shape)})
-    got = _render_probe(_probe_source(expr))
+    if source == "files":
+        got = _render_probe(_probe_source(READS[name].format(**{f"n{k}": n for k, n in enumerate(shape)})))
+    else:
+        got = _render_probe(_array_source(name))
     assert got.shape[0] > 100
     c0, c1 = got[:, 1], got[:, 2]
     coords = [c0, c1] if len(shape) == 2 else [c0, c1, _c2(c0, c1)]
     want = _multilinear(luts.table(name).astype(np.float64), coords, np.float64)
     err = np.abs(got[:, 0] - want)
-    assert err.max() < TOLERANCE, (name, err.max(), got[np.argmax(err)], want[np.argmax(err)])
+    assert err.max() < TOLERANCE, (name, source, err.max(), got[np.argmax(err)], want[np.argmax(err)])
 
 
 def test_osl_reads_of_the_packed_table_equal_numpy(addon):
@@ -115,8 +140,8 @@ def test_osl_reads_of_the_packed_table_equal_numpy(addon):
 def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon, scene):
     """A .blend saved by a Lamella whose node group read the tables' earlier layout (the atlas
     alone, read at t) would read wrong rows now: it is reported and rebuilt at the next render, as
-    other damage is. (The OSL shader inside a .blend reads no table file: a textured material whose
-    shader would renders its node group.)"""
+    other damage is. (The OSL shader inside a .blend reads no table file: a textured material's
+    shader carries the tables its live part reads in its source.)"""
     from lamella.blender import material_nodes, recompile
     from lamella_dev import suite
     from lamella.blender import api
@@ -131,7 +156,9 @@ def test_a_material_saved_before_the_layout_is_repaired_at_the_next_render(addon
     m.node_tree.links.new(value.outputs[0], api.input_socket(m, 0, "roughness"))
     recompile.compile_material(m)
     assert m.lamella.live_params == "coat0_roughness" and material_nodes.broken(m) is None
-    assert material_nodes.shader_source(m) is None, "no Script node reading files outside the .blend"
+    source = material_nodes.shader_source(m)
+    assert "lut_dir" not in source and "texture(" not in source, "no Script node reading files outside the .blend"
+    assert "float LUT_" in source
     tree = material_nodes.inner_nodes(m)[2].node_tree
     assert material_nodes.reads_old_tables("lamella_tex(x) // lamella LUT layout 1")
     tree[material_nodes.STRUCTURE_KEY] = tree[material_nodes.STRUCTURE_KEY].split(":", 1)[1]

@@ -49,6 +49,34 @@ def test_a_linked_parameter_stays_live_and_reads_its_socket():
         staging.stage(stack, live=["coat7_alpha"])
 
 
+def test_a_live_shader_carries_the_tables_it_reads_in_its_source_or_reads_their_files():
+    """A Script node's shader (tables="inline") holds, as constant arrays, exactly the look-up
+    tables its live part reads, in the order ``lamella_arrays.h`` reads them, and reads no file; an
+    exported one (tables="files") reads the same tables from EXR files in lut_dir."""
+    import re
+
+    from lamella.core import luts
+    from lamella.core.backends.osl.emit import osl_shader, table_array
+
+    stack = suite.load("gold_coated")
+    files = osl_shader(stack, live=["coat0_roughness"])
+    inline = osl_shader(stack, live=["coat0_roughness"], tables="inline")
+    assert files.tables and "lut_dir" in files.source and "texture(" in files.source
+    assert not inline.tables and "lut_dir" not in inline.source and "texture(" not in inline.source
+    read = {name for name, spec in luts.SPECS.items()
+            if spec.file in files.tables or luts.PACKED.get(name) in files.tables}
+    arrays = dict(re.findall(r"float LUT_(\w+)\[\d+\] = \{([^}]*)\}", inline.source))
+    assert set(arrays) == read
+    for name, values in arrays.items():
+        np.testing.assert_array_equal(np.array(values.split(", "), dtype=np.float32), table_array(name))
+    t = luts.table("tir")  # slices along the last axis, one after the other
+    assert table_array("tir")[t.shape[0] * t.shape[1] + 3] == t[0, 3, 1]
+    nothing_live = osl_shader(stack, tables="inline")
+    assert "LUT_" not in nothing_live.source and "lamella_arr" not in nothing_live.source
+    with pytest.raises(ValueError, match="tables must be"):
+        osl_shader(stack, tables="textures")
+
+
 def test_live_inputs_are_named_by_socket_or_parameter():
     """A material links sockets (the panel's units: roughness r, one colour socket per RGB field);
     linking one makes the parameters it feeds live, the same as naming them."""

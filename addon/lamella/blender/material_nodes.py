@@ -7,11 +7,10 @@ engine switch between them (``face``). The material renders through its active o
 engine, as a Principled material does; nothing Lamella makes takes precedence over the artist's
 nodes.
 
-Everything a render reads is inside the .blend: the shader's tables are constants in its source,
-the node group's material table is a packed image, and where a textured material's node group
-reads the package's look-up tables those images are packed too. A staged shader that would read
-a table file (a linked input whose part of the model reaches one) is left out: such a material
-renders its node group in every engine.
+Everything a render reads is inside the .blend: the shader's tables are constants in its source
+(its material table, and the model's look-up tables where a linked input's part of the model reads
+them), the node group's material table is a packed image, and where a textured material's node
+group reads the package's look-up tables those images are packed too.
 
 Each material owns its face group, node group, shader text and table image: a material copied
 or duplicated shares them until it is compiled, and then gets its own copies (a group or text with
@@ -248,8 +247,7 @@ def input_for_model(mat, model_socket: str):
 
 def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) -> bool | None:
     """Put a compiled shader (``OslShader`` compiled to ``oso_path``) and the node group of the
-    same staging into ``mat``'s face, and wire the face's inputs to both. The Script node is left
-    out where the shader reads table files (it would not render elsewhere). With ``build_group``
+    same staging into ``mat``'s face, and wire the face's inputs to both. With ``build_group``
     False a structure change leaves the node group as it is (``install_group``). Returns whether the
     node group was rebuilt, None when it was left out of date."""
     node, tree = ensure_face(mat)
@@ -262,23 +260,21 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
     eevee_settings(mat, stack)
     animation.remap(node, before)
     face.set_node_values(node, inputs)
-    script = tree.nodes.get(SCRIPT)
     if shader.tables:
-        if script is not None:
-            tree.nodes.remove(script)
-            script = None
-    else:
-        if script is None:
-            script = tree.nodes.new("ShaderNodeScript")
-            script.name, script.label, script.width = SCRIPT, "Lamella (OSL)", 240.0
-        text = shader_text(mat, script)
-        assign_compiled(script, text, shader.source, oso_path, shader.socket_values)
-        text[SOURCE_KEY] = source_digest(shader.source)
+        raise ValueError(f"the shader of {mat.name!r} reads table files ({', '.join(shader.tables)}): a "
+                         "material's shader carries its tables in its source (osl_shader's tables='inline')")
+    script = tree.nodes.get(SCRIPT)
+    if script is None:
+        script = tree.nodes.new("ShaderNodeScript")
+        script.name, script.label, script.width = SCRIPT, "Lamella (OSL)", 240.0
+    text = shader_text(mat, script)
+    assign_compiled(script, text, shader.source, oso_path, shader.socket_values)
+    text[SOURCE_KEY] = source_digest(shader.source)
     group = tree.nodes.get(GROUP)
     if group is None:
         group = tree.nodes.new("ShaderNodeGroup")
         group.name, group.label, group.width = GROUP, "Lamella (nodes)", 240.0
-    rebuilt = install_group(mat, group, stack, model, shader, build=build_group or script is None)
+    rebuilt = install_group(mat, group, stack, model, shader, build=build_group)
     face.wire(tree, inputs, script, group, face.live_keys(node, inputs, animation.animated_paths(mat.node_tree)))
     animation.mirror_panel(mat)
     return rebuilt

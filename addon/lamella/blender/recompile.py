@@ -40,7 +40,7 @@ from contextlib import contextmanager
 import bpy
 from bpy.app.handlers import persistent
 
-from ..core import luts, stack_format
+from ..core import stack_format
 from ..core.backends.osl.emit import osl_shader
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack, StackError
@@ -226,8 +226,8 @@ def build_shader(stack, model: str, live=(), budget="auto", partition=None):
     merged to ``budget`` (or grouped as ``partition``, where it fits: ``lobe_budget.merge``):
     (OslShader, .oso path, the model that ran). Raises StackError, UnsupportedStack, ValueError
     (an unknown model) or OSLCompileError."""
-    shader = osl_shader(stack, model, lut_dir=str(luts.DATA_DIR), live=live, budget=budget, partition=partition,
-                        engine_switch=True)
+    shader = osl_shader(stack, model, live=live, budget=budget, partition=partition, engine_switch=True,
+                        tables="inline")
     return shader, compile_source(shader.source, "lamella"), shader.model
 
 

@@ -36,7 +36,9 @@ from ..ir.trace import Expr, Tracer
 from ..ir.traced_ops import OPS
 
 OSL_DIR = Path(__file__).resolve().parents[3] / "data" / "osl"  # inside the package: every install emits OSL
-LUT_HEADER = "lamella_luts.h"
+LUT_HEADER = "lamella_luts.h"  # the tables read from EXR files in ``lut_dir``
+ARRAY_HEADER = "lamella_arrays.h"  # the tables read from constant arrays in the source
+TABLE_SOURCES = ("files", "inline")  # where a shader's model tables come from (``osl_shader``)
 ENERGY_EPS = 1e-6  # lobes below this energy at a shading point add no closure
 
 # How each target renderer defines the global ``I``, and the line that turns it into V, the unit
@@ -100,6 +102,8 @@ class _Printer:
         self.table_shape = (0, 0, 0)
         self.table_columns: dict[int, int] = {}  # a column of the staged table -> its column in MT
         self.files: set[str] = set()  # the EXR tables (in lut_dir) the printed code reads
+        self.inline = False  # tables as constant arrays in the source instead of files
+        self.arrays: set[str] = set()  # the tables (``luts.SPECS`` names) read from those arrays
 
     def ref(self, a) -> str:
         if isinstance(a, Expr):
@@ -143,6 +147,8 @@ class _Printer:
                 rhs = f"{self.ref(a[0])} {_BIN[e.op]} {self.ref(a[1])}"
             elif e.op == "select":
                 rhs = f"{self.ref(a[0])} ? {self.ref(a[1])} : {self.ref(a[2])}"
+            elif e.op == "lut" and self.inline:
+                rhs = self._array_read(a[0], [self.ref(c) for c in a[1:]], a[1:])
             elif e.op == "lut":
                 rhs = self._packed_read(a)
                 if rhs is None:
@@ -214,6 +220,20 @@ class _Printer:
                               f"{group * n0}.0, {n2 // 4 * n0}, {var}_a);")
         return f"{var}_a" if channel == 3 else f"{var}[{channel}]"
 
+    def _array_read(self, name: str, coords: list[str], raw=()) -> str:
+        """A read of the named table from its constant array (``table_array``, ``lamella_arrays.h``);
+        a 3D table at a literal last coordinate on one of its nodes reads that slice alone."""
+        self.arrays.add(name)
+        arr, shape = array_name(name), luts.SPECS[name].shape
+        if len(shape) == 2:
+            return f"lamella_arr2({arr}, 0, {coords[0]}, {coords[1]}, {shape[0]}, {shape[1]})"
+        n0, n1, n2 = shape
+        if len(raw) == 3 and isinstance(raw[2], float) and 0.0 <= raw[2] <= 1.0:
+            k = raw[2] * (n2 - 1)
+            if abs(k - round(k)) < 1e-9:
+                return f"lamella_arr2({arr}, {round(k) * n0 * n1}, {coords[0]}, {coords[1]}, {n0}, {n1})"
+        return f"lamella_arr3({arr}, {coords[0]}, {coords[1]}, {coords[2]}, {n0}, {n1}, {n2})"
+
     @staticmethod
     def _lut(name: str, coords: list[str], raw=()) -> str:
         spec = luts.SPECS[name]
@@ -237,6 +257,18 @@ class _Printer:
 MAX_FLAT_STATEMENTS = 6000
 BLOCK_STATEMENTS = 4000
 _DECLARATION = re.compile(r"^    (float|int|color) (\w+)(?: = (.*))?;$")
+
+
+def array_name(name: str) -> str:
+    """The OSL name of the constant array that holds the table ``name`` in a shader."""
+    return f"LUT_{_identifier(name)}"
+
+
+def table_array(name: str) -> np.ndarray:
+    """The table ``name`` in the order ``lamella_arrays.h`` reads it: a 2D table row by row, a 3D
+    one as its slices along the last axis, one after the other (float32, flat)."""
+    t = luts.table(name)
+    return np.ascontiguousarray(t if t.ndim == 2 else np.moveaxis(t, 2, 0)).ravel()
 
 
 def _blocked(lines: list[str]) -> list[str]:
@@ -332,15 +364,16 @@ class ShaderClosure:
 
 
 def emit_osl(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
-             view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all") -> str:
+             view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all",
+             tables: str = "files") -> str:
     """The OSL source of a shader for ``stack`` (a Stack, dict or JSON) under ``model``
     (``osl_shader``)."""
-    return osl_shader(stack, model, name, lut_dir, view, live, budget, staged, declare).source
+    return osl_shader(stack, model, name, lut_dir, view, live, budget, staged, declare, tables=tables).source
 
 
 def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str | Path | None = None,
                view: str = "cycles", live=(), budget="auto", staged: bool = True, declare: str = "all",
-               partition=None, engine_switch: bool = False) -> OslShader:
+               partition=None, engine_switch: bool = False, tables: str = "files") -> OslShader:
     """The shader for ``stack`` (a Stack, dict or JSON) under ``model``.
 
     ``staged`` (default): the model staged for a material whose parameters ``live`` are linked
@@ -359,7 +392,13 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     grouping into closures to keep (``staging.stage``). ``engine_switch``: the shader also writes
     1 to the output ``ENGINE_SWITCH`` (declared 0): a Mix Shader whose factor it drives picks the
     shader where Cycles runs OSL, and its own factor (0) where a renderer drops the Script node
-    (Cycles without OSL, EEVEE), with no add-on code at render time."""
+    (Cycles without OSL, EEVEE), with no add-on code at render time. ``tables``: where the model's
+    look-up tables a live part reads come from: "files" (the EXR files in ``lut_dir``: an exported
+    shader, a few kB of source) or "inline" (constant arrays in the source, only the tables read:
+    a shader that renders with nothing beside it, as Blender's Script node in a .blend; up to about
+    60,000 values when a live input reaches every table)."""
+    if tables not in TABLE_SOURCES:
+        raise ValueError(f"tables must be one of {', '.join(TABLE_SOURCES)}, got {tables!r}")
     if declare not in ("all", "live"):
         raise ValueError(f"declare must be 'all' or 'live', got {declare!r}")
     if view not in VIEW_LINES:
@@ -375,6 +414,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
     stack = traced.stack
     outputs = [x for c in closures for x in (*c.weight, *c.args.values())]
     p = _Printer(t)
+    p.inline = tables == "inline"
     if table is not None:
         table = _shader_table(t, outputs, table)
         p.table_shape = table.shape
@@ -388,7 +428,7 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         sections[f"coat{i}"] = (f"coat {i}: interface from above, refraction into it"
                                 + (", absorption" if c.has_absorption else ""))
     p.emit(outputs, sections)
-    uses_tables = any(e.op == "lut" for e in t.live_nodes(outputs))
+    uses_tables = bool(p.files)  # a shader that reads EXR files (in ``lut_dir``)
 
     shader = _identifier(name or f"lamella_{stack.name or 'stack'}")
     live_names = tuple(st.live) if st is not None else tuple(sorted(all_params))
@@ -442,6 +482,11 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         body += [f"    // the material table: {table.shape[0]} views along sqrt(1 - sqrt(cos theta))"
                  + (f" x {table.shape[1]} azimuths" if table.shape[1] > 1 else "") + f", {table.shape[2]} columns",
                  f"    float MT[{table.size}] = {{{values}}};"]
+    for name_ in sorted(p.arrays):
+        spec = luts.SPECS[name_]
+        values = table_array(name_)
+        body += [f"    // the model's table {name_} ({' x '.join(map(str, spec.shape))}, ``lamella.core.luts``)",
+                 f"    float {array_name(name_)}[{values.size}] = {{{', '.join(_float32_literals(values))}}};"]
     for n in normals:  # each layer's own normal (the shading normal where its input is zero)
         sock = normal_socket(n)
         body.append(f"    vector N_{n} = length({sock}) > 1e-8 ? normalize({sock}) : Normal;")
@@ -471,7 +516,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
             f"    if (max({r}, max({g}, {b})) > {_literal(ENERGY_EPS)})",
             f"        BSDF += color({r}, {g}, {b}) * {closure};",
         ]
-    header = (OSL_DIR / LUT_HEADER).read_text() if uses_tables else ""
+    header = "\n".join((OSL_DIR / h).read_text() for h, used in ((LUT_HEADER, uses_tables), (ARRAY_HEADER, p.arrays))
+                       if used)
     desc = stack.to_json(indent=None)
     how = (f"staged: {len(closures)} closures for {st.lobes_all} lobes, live: {', '.join(st.live) or 'nothing'}"
            if st is not None else "fully traced")
