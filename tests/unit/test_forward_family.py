@@ -52,20 +52,23 @@ def test_normal_incidence_and_energies_are_unchanged(d):
 @pytest.mark.parametrize("d,ior", [(FOG, 1.0), (MILKY, 1.5)])
 @pytest.mark.parametrize("theta", [30.0, 60.0, 75.0])
 def test_across_the_plane_the_roughness_over_the_mediums_cosine(d, ior, theta):
-    """One lobe per scattering coat changes: the forward family's, across the plane of incidence
+    """The forward families' lobes change (the once-scattered one's too, where the coat draws it
+    apart: in a fog, not in a coat of index 1.5), nothing else: across the plane of incidence
     the roughness whose projected width at cos(theta_t) is the lobe's at normal incidence (theta_t
     the mean direction's angle in the coat; alpha / cos(theta_t) to first order, narrower as the
     horizon nears), its axis the view's azimuth."""
     phi = 0.4
     wi = directions([theta], phi=phi)
     a, b = lc.lobes(d, wi, ROUND), lc.lobes(d, wi, PLAIN)
-    (j,) = _changed(a, b)
-    alpha, across = b.alpha_x[0, j], a.alpha_y[0, j]
+    changed = _changed(a, b)
+    assert len(changed) == (2 if ior == 1.0 else 1)
     c = np.sqrt(1.0 - (np.sin(np.radians(theta)) / ior) ** 2)
     k = FORWARD_SATURATION
-    assert across ** 2 * (c * c + k * across ** 2) == pytest.approx(alpha ** 2 * (1.0 + k * alpha ** 2), rel=1e-9)
-    assert alpha < across <= alpha / c
-    assert a.rotation[0, j] == pytest.approx(phi, abs=1e-12)
+    for j in changed:
+        alpha, across = b.alpha_x[0, j], a.alpha_y[0, j]
+        assert across ** 2 * (c * c + k * across ** 2) == pytest.approx(alpha ** 2 * (1.0 + k * alpha ** 2), rel=1e-9)
+        assert alpha < across <= alpha / c
+        assert a.rotation[0, j] == pytest.approx(phi, abs=1e-12)
 
 
 def test_the_cosine_is_the_scattering_coats_for_light_reflected_below_it():
@@ -102,8 +105,8 @@ def test_the_lobe_turns_with_the_view():
     for name in ("weight", "alpha_x", "alpha_y"):
         np.testing.assert_allclose(getattr(lb, name)[1:], np.broadcast_to(getattr(lb, name)[:1], getattr(lb, name)[1:].shape),
                                    rtol=1e-12)
-    (k,) = _changed(lb, lc.lobes(FOG, wi, PLAIN))
-    np.testing.assert_allclose(lb.rotation[:, k], [0.0, 1.0, 2.5], atol=1e-12)
+    for k in _changed(lb, lc.lobes(FOG, wi, PLAIN)):  # the forward and the once-scattered family
+        np.testing.assert_allclose(lb.rotation[:, k], [0.0, 1.0, 2.5], atol=1e-12)
 
 
 def test_stacks_with_an_anisotropic_interface_keep_round_lobes():
@@ -130,3 +133,40 @@ def test_finite_and_bounded_from_normal_incidence_to_the_horizon(dtype):
         wo = directions([30.0, 85.0, 60.0, 30.0, 0.0], phi=1.1 + np.pi)
         f = lc.evaluate(d, wi, wo, ROUND, dtype=dtype)
         assert np.isfinite(f).all() and (f >= 0).all()
+
+
+def _without_the_once_scattered_family(monkeypatch):
+    from lamella.core.models import transfer_matrix
+
+    monkeypatch.setattr(transfer_matrix, "once_forward", lambda ops, sa, ss, g, h: 0.0 * h)
+
+
+@pytest.mark.parametrize("d", [FOG, stack(medium(1.0, 0.0, 0.5, (0.5, 0.5, 0.5), 0.9),
+                                          medium(1.0, 0.0, 0.7, (0.3, 0.6, 0.9), 0.5, sigma_a=(0.2, 0.1, 0.0)),
+                                          base=gold(0.1))])
+def test_the_once_scattered_family_splits_the_forward_light_and_keeps_its_energy(d, monkeypatch):
+    """The forward light a medium scattered once is a family of its own (``F1``), with a narrower
+    lobe than the rest of the forward light; the energies are the single family's, split: the
+    albedo is the same with the family drawn apart or not, through two media too."""
+    wi = directions([0.0, 30.0, 60.0, 80.0], phi=0.3)
+    split = lc.lobes(d, wi, "tm6")
+    albedo = lc.albedo(d, wi, "tm6")
+    _without_the_once_scattered_family(monkeypatch)
+    whole = lc.lobes(d, wi, "tm6")
+    np.testing.assert_allclose(lc.albedo(d, wi, "tm6"), albedo, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(split.weight.sum(1), whole.weight.sum(1), rtol=1e-9, atol=1e-12)
+    at_zero = split.weight[0].sum(-1) > 1e-6  # normal incidence: lobes that carry light
+    narrow = split.alpha_x[0][at_zero].min()
+    assert narrow < whole.alpha_x[0][at_zero & (whole.alpha_x[0] > 0.05)].min()  # a narrower lobe appears
+
+
+def test_a_coat_that_refracts_keeps_one_forward_family(monkeypatch):
+    """Over a coat of index 1.5 the once-scattered light is not drawn apart (``ONCE_INDEX_RAMP``):
+    the lobes are the same as without the family."""
+    wi = directions([0.0, 45.0, 75.0], phi=0.3)
+    split = lc.lobes(MILKY, wi, "tm6")
+    _without_the_once_scattered_family(monkeypatch)
+    whole = lc.lobes(MILKY, wi, "tm6")
+    np.testing.assert_allclose(split.weight, whole.weight, rtol=1e-12, atol=1e-15)
+    on = split.weight.sum(-1) > 0
+    np.testing.assert_allclose(split.alpha_x[on], whole.alpha_x[on], rtol=1e-12)

@@ -297,3 +297,20 @@ def test_a_thick_forward_scattering_absorbing_coat_matches_the_walk_at_normal_in
     want = np.asarray(ref[f"albedo_{i}"])
     assert abs(got[1] / want[1] - 1.0) < 0.10, (got, want)
     np.testing.assert_allclose(got[[0, 2]], want[[0, 2]], rtol=0.05)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_the_forward_light_scattered_once_is_part_of_the_forward_secondary(dtype):
+    """``once_forward`` (tau_f h e^{-sigma_t h}) is at most the whole forward secondary of a slab
+    (T_KM - T_pp, without lengthened paths) and equals it to first order in a thin slab."""
+    from lamella.core.models.homogeneous_medium import once_forward
+
+    ops = NumpyOps(dtype)
+    h = np.array([1e-4, 1e-2, 0.3, 1.0, 4.0, 30.0], dtype=dtype)
+    for g in (0.0, 0.5, 0.9, 0.99):
+        for sa, ss in ((0.0, 0.5), (1.0, 0.7), (0.1, 5.0)):
+            tpp, _, t = slab(ops, dtype(sa), dtype(ss), dtype(g), h)
+            once = once_forward(ops, dtype(sa), dtype(ss), dtype(g), h)
+            assert np.isfinite(once).all() and (once >= 0.0).all()
+            assert (once <= (t - tpp) * (1 + 1e-4) + 1e-7).all(), (g, sa, ss, once, t - tpp)
+            np.testing.assert_allclose(once[0], (t - tpp)[0], rtol=2e-3, atol=2e-7 if dtype == np.float32 else 0.0)

@@ -116,3 +116,15 @@ def slab(ops, sigma_a, sigma_s, g, h, asymmetry: bool = False, mu=None):
     else:
         r, t = kubelka_munk(ops, sigma_a + sb, sb, h, sigma_a)
     return ops.exp(-sigma_t * h), r, t
+
+
+def once_forward(ops, sigma_a, sigma_s, g, h):
+    """The energy a unit primary leaves on the far side of a slab (path length ``h`` along the
+    mean direction) as forward-scattered light that scattered exactly once: scattered forward at
+    depth z (rate tau_f = sigma_s (1 - p-(g)), Eq. 33) after crossing z unscattered, then crossing
+    h - z without scattering or being absorbed again along the same path (its direction is the
+    primary's within the phase function's narrow forward lobe):
+    int_0^h tau_f e^{-sigma_t z} e^{-sigma_t (h - z)} dz = tau_f h e^{-sigma_t h}."""
+    sf = sigma_s * (1.0 - backscatter_fraction(ops, g))
+    return sf * h * ops.exp(-(sigma_a + sigma_s) * h)
+

@@ -342,6 +342,9 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         return (id(c.cover) if live_expr(c.cover) else None, c.framed(normals))
 
     samples = [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), group=group(c)) for c in fixed]
+    # a baked lobe of no energy at any view adds no closure (a family the stack never feeds, such as
+    # the once-scattered forward light of a coat that refracts it: ``transfer_matrix``)
+    samples = [s for s in samples if np.any(s.energy != 0.0)] or samples[:1]
     samples += [lobe_budget.LobeSamples.of(c, on_grid, source.index(c), live=True, group=group(c)) for c in moving]
     views = lobe_budget.check_views(dirs, turn)
     groups = lobe_budget.merge(samples, budget, np.asarray(dirs), views=views,
