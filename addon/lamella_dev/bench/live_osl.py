@@ -82,8 +82,10 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         svm_s, svm_px = _timed(sc, False)
         node, script, group = material_nodes.inner_nodes(mat)
         bytecode = len(script.bytecode.encode())
+        blend_mb = _saved_mb()
         node.node_tree.nodes.remove(script)  # the node group alone, compiled by OSL
         group_s, group_px = _timed(sc, True)
+        blend_mb_group = _saved_mb()
         nodes = sum(1 for _ in _group_nodes(group.node_tree))
 
         p_mat, nt, out = sphere_material(sphere, f"{label} principled")
@@ -96,7 +98,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         p_svm, _ = _timed(sc, False)
         rows.append({"stack": label, "case": case, "live": mat.lamella.live_params,
                      "shader_lines": len(source.splitlines()), "shader_kB": len(source.encode()) / 1024,
-                     "bytecode_kB": bytecode / 1024,
+                     "bytecode_kB": bytecode / 1024, "blend_MB": blend_mb, "blend_MB_group": blend_mb_group,
                      "table_values": sum(int(line.split("[", 1)[1].split("]", 1)[0]) for line in source.splitlines()
                                          if line.startswith("    float LUT_")),
                      "group_nodes": nodes, "script_osl_s": script_s, "group_osl_s": group_s, "group_svm_s": svm_s,
@@ -106,6 +108,16 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
             bpy.data.materials.remove(m)
     data = {"res": RES, "spp": SPP, "repeats": REPEATS, "rows": rows}
     return write_page(out_dir, "live_osl", lambda: _markdown(data), data)
+
+
+def _saved_mb() -> float:
+    """The size of the session saved as an uncompressed .blend (MB): what the material adds to a file."""
+    import bpy
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "live.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=False, copy=True)
+        return path.stat().st_size / 1e6
 
 
 def _group_nodes(tree):
@@ -130,16 +142,18 @@ def _markdown(data) -> str:
         "*Group, SVM*: Cycles without OSL. *Principled*: a coated metal Principled BSDF with a Value node in "
         "its coat roughness, the control for what OSL itself costs. *Script vs group*: mean relative "
         "difference of the two OSL renders (the node group reads tables over the linked values, the shader "
-        "traces them: `bench/linked_tables.md`).",
+        "traces them: `bench/linked_tables.md`). *.blend MB*: the session saved uncompressed, with the "
+        "Script node / without it (one material of this stack in the file; the node group's packed tables are "
+        "in both).",
         "",
-        "| stack | live | shader lines | shader kB | bytecode kB | table values in it | group nodes | Script node, OSL (s) | "
+        "| stack | live | shader lines | shader kB | bytecode kB | table values in it | .blend MB, with / without the shader | group nodes | Script node, OSL (s) | "
         "group, OSL (s) | group, SVM (s) | Principled OSL / SVM (s) | group OSL / Script | Script / Principled OSL | "
         "Script vs group (OSL) | Script vs SVM |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|",
+        "|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|",
     ]
     for r in data["rows"]:
         md.append(f"| {r['stack']} | {r['live']} | {r['shader_lines']} | {r['shader_kB']:.0f} | {r['bytecode_kB']:.0f} | "
-                  f"{r['table_values']} | "
+                  f"{r['table_values']} | {r['blend_MB']:.1f} / {r['blend_MB_group']:.1f} | "
                   f"{r['group_nodes']} | {r['script_osl_s']:.2f} | {r['group_osl_s']:.2f} | {r['group_svm_s']:.2f} | "
                   f"{r['principled_osl_s']:.2f} / {r['principled_svm_s']:.2f} | "
                   f"{r['group_osl_s'] / r['script_osl_s']:.1f}x | {r['script_osl_s'] / r['principled_osl_s']:.2f}x | "
