@@ -24,9 +24,12 @@ solution no longer holds: the primary (still decaying at sigma_t) and the forwar
 taken as the lengthened flux, and its forward share T_KM - T_pp is bounded below by 0 where the
 caller uses it (``transfer_matrix._medium``). The bound is reached in dense absorbing media of
 moderate g (sigma_a 10, sigma_s 3.2, g 0.13, depth 0.18: T_KM 0.066 against T_pp 0.096), where
-the slab then passes its primary alone. The lengthened system's own forward secondary,
-T_KM - e^{-(sigma_a L + sigma_s) h'}, is never negative and needs no bound; it moves the suite and
-hold-out figures (holdout_12 by 0.026 at normal incidence), so it is a model change of its own.
+the slab then passes its primary alone. Two consistent forms were measured by the keep rule and
+not kept: the lengthened system's own forward secondary, T_KM - e^{-(sigma_a L + sigma_s) h'}
+(never negative; holdout_12 at normal incidence 0.163 -> 0.189), and the exact particular solution
+with the primary at sigma_t and the secondary fluxes at sigma_a L (green_scatter_d6 at normal
+incidence 0.292 -> 0.359). The lengthening was fitted with the bound in place; a consistent form
+needs it derived again.
 
 gamma is formed as sqrt((alpha - beta)(alpha + beta)) from sums of the coefficients that never
 cancel: for energies alpha - beta = sigma_a exactly. (alpha = sigma_t - tau_f computed as written
