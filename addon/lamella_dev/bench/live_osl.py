@@ -14,6 +14,7 @@ compile: times are medians of ``REPEATS`` renders, compared as ratios within the
 """
 from __future__ import annotations
 
+import re
 import statistics
 import tempfile
 import time
@@ -29,6 +30,7 @@ from .registry import Bench, register
 RES = 32
 SPP = 16
 REPEATS = 3
+LUT_ARRAY = re.compile(r"float LUT_\w+\[(\d+)\]")  # a look-up table the shader carries (``emit.array_name``)
 # (label, suite case, the inputs of coat 0 a Value node is linked into, their values)
 STACKS = (
     ("1 coat, roughness linked", "gold_coated", (("roughness", 0.3),)),
@@ -99,8 +101,7 @@ def run(out_dir: Path = BENCH_DIR) -> Path:
         rows.append({"stack": label, "case": case, "live": mat.lamella.live_params,
                      "shader_lines": len(source.splitlines()), "shader_kB": len(source.encode()) / 1024,
                      "bytecode_kB": bytecode / 1024, "blend_MB": blend_mb, "blend_MB_group": blend_mb_group,
-                     "table_values": sum(int(line.split("[", 1)[1].split("]", 1)[0]) for line in source.splitlines()
-                                         if line.startswith("    float LUT_")),
+                     "table_values": sum(int(n) for n in LUT_ARRAY.findall(source)),
                      "group_nodes": nodes, "script_osl_s": script_s, "group_osl_s": group_s, "group_svm_s": svm_s,
                      "principled_osl_s": p_osl, "principled_svm_s": p_svm,
                      "script_vs_group_osl": _rel(script_px, group_px), "script_vs_svm": _rel(script_px, svm_px)})

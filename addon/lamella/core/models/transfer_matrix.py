@@ -379,7 +379,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
                 ups[F], ups[B] = _scattered_escape(ops, p, n12, sx, sy, R, T, tir_s)
             else:
                 ups[F] = ups[B] = (R + T * (1.0 - tir_s), T * tir_s)
-            ups[F1] = ups[F]  # measured: its own, narrower escape cone let too little out
+            ups[F1] = ups[F]  # its own, narrower escape cone measured worse (the module docstring)
         up = {(k, k): ups[k][0] for k in range(n)}
         tup = {(k, k): ups[k][1] for k in range(n)}
         ce = Component(_diag(R, n), _diag(T, n), up, tup)
@@ -523,18 +523,21 @@ def _medium(ops, p, mu, n: int):
     sig_a = p.get("sigma_a", RGB.splat(0.0))
     if "sigma_s" not in p:  # absorption only: every family decays alike, nothing is scattered
         t = sig_a.map(lambda s: ops.exp(-s * h))
-        return Component({}, _diag(t, n), {}, _diag(t, n)), Component({}, _diag(t, n), {}, _diag(t, n))
+        return _symmetric({}, _diag(t, n)), _symmetric({}, _diag(t, n))
     sig_s, g = p["sigma_s"], p["g"]
     m = ops.max(mu, COS_FLOOR)  # the scattered light absorbs along its longer paths (``path_lengthening``)
     e = [slab(ops, sa, ss, g, h, mu=m) for sa, ss in zip(sig_a, sig_s)]
     a = [slab(ops, sa, ss, g, h, asymmetry=True, mu=m) for sa, ss in zip(sig_a, sig_s)]
     once = RGB(*(once_forward(ops, sa, ss, g, h) for sa, ss in zip(sig_a, sig_s)))
 
-    def comp(parts, once_share):
+    def factors(parts):
         tpp, r, t = (RGB(*(x[k] for x in parts)) for k in range(3))
         # the forward secondary's share, bounded below by 0 (``homogeneous_medium``: with the
         # lengthened paths T_KM can fall below T_pp)
-        sec = (t - tpp).map(lambda x: ops.max(x, 0.0))
+        return tpp, r, t, (t - tpp).map(lambda x: ops.max(x, 0.0))
+
+    def comp(parts, once_share):
+        tpp, r, t, sec = factors(parts)
         if n < 4:
             return _symmetric({(B, P): r, (B, F): r, (F, B): r}, {(P, P): tpp, (F, P): sec, (F, F): t, (B, B): t})
         # the part of it scattered once keeps the primary's path and leaves as narrow as the phase
@@ -547,7 +550,7 @@ def _medium(ops, p, mu, n: int):
     # a share of the forward secondary, drawn apart only where the coat does not refract (see
     # ``ONCE_INDEX_RAMP``)
     unrefracted = ops.clamp(1.0 - ops.abs(p["ior"] - 1.0) * (1.0 / ONCE_INDEX_RAMP), 0.0, 1.0)
-    once_e = once.zip(RGB(*(x[2] - x[0] for x in e)), lambda o, s_: ops.min(o, ops.max(s_, 0.0))) * unrefracted
+    once_e = once.zip(factors(e)[3], ops.min) * unrefracted
     return comp(e, once_e), comp(a, once_e * g)
 
 
