@@ -106,11 +106,11 @@ def cmd_plot(a) -> int:
 def cmd_luts(a) -> int:
     from lamella.core import luts
 
-    from .luts_build import generate_all
+    from .luts_build import generate
 
     t0 = time.time()
     out = Path(a.out) if a.out else luts.DATA_DIR
-    for p in luts.write_tables(generate_all(), out):
+    for p in luts.write_tables(generate(a.only.split(",") if a.only else None), out):
         print(f"wrote {p}")
     print(f"{time.time() - t0:.1f} s")
     return 0
@@ -400,6 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("luts", help="regenerate the pre-integrated tables (EXR)")
     p.add_argument("--out", help="output folder (default: the package's data/luts)")
+    p.add_argument("--only", help="comma-separated tables to generate again (the others kept from the "
+                                  "folder's tables.npz)")
     p.set_defaults(fn=cmd_luts)
 
     p = sub.add_parser("references", help="compute and store the BRDF references of the accuracy suite")

@@ -31,6 +31,8 @@ READS = {
     "fresnel_hat_delta": 'lamella_lut3(concat(dir, "/fresnel_hat_delta.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "dielectric_rough_reflect": 'lamella_lut3(concat(dir, "/dielectric_rough_reflect.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "dielectric_trapped_escape": 'lamella_lut3(concat(dir, "/dielectric_trapped_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "coat_first_escape": 'lamella_lut3(concat(dir, "/coat_first_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "coat_trapped_equilibrium": 'lamella_lut3(concat(dir, "/coat_trapped_equilibrium.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
 }
 
 

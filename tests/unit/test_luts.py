@@ -17,7 +17,8 @@ def test_stored_tables_have_their_shape_and_range(name):
     t = luts.table(name)
     assert t.shape == luts.SPECS[name].shape and t.dtype == np.float32
     assert np.isfinite(t).all()
-    if name in ("ggx_albedo", "tir", "ggx_refract_albedo", "dielectric_rough_reflect", "dielectric_trapped_escape"):
+    if name in ("ggx_albedo", "tir", "ggx_refract_albedo", "dielectric_rough_reflect", "dielectric_trapped_escape",
+                "coat_first_escape", "coat_trapped_equilibrium"):
         assert (t >= 0).all() and (t <= 1).all()
 
 
@@ -47,6 +48,46 @@ def test_stored_trapped_escape_table_matches_the_generator(cell):
     s = luts.ms_sine(i / (luts.N_MS_X - 1.0), eta)
     assert luts.table("dielectric_trapped_escape")[i, j, k] == pytest.approx(
         luts_build.dielectric_trapped_escape_cell(s, alpha, eta), abs=1e-6)
+
+
+@pytest.mark.parametrize("cell", [(0, 3, 2, 7), (5, 6, 9, 7), (15, 4, 4, 3), (9, 9, 0, 10), (2, 0, 5, 5)])
+def test_stored_first_escape_table_matches_the_generator(cell):
+    """Cells of ``coat_first_escape`` (view, coat alpha, base alpha, eta) recomputed by its
+    generator's walks: the same random numbers, the same value, where the folded axis puts them."""
+    i, j, b, k = cell
+    alphas, etas = luts._alpha_nodes(luts.N_FE_ALPHA), luts._tir_eta_nodes(luts.N_FE_ETA)
+    mu = i / (luts.N_FE_MU - 1.0)
+    assert luts.table("coat_first_escape")[i, j, k * luts.N_FE_ALPHA + b] == pytest.approx(
+        luts_build.coat_first_escape_cell(mu, float(alphas[j]), float(alphas[b]), float(etas[k])), abs=1e-6)
+
+
+@pytest.mark.parametrize("cell", [(3, 0, 7), (6, 6, 7), (9, 2, 3), (0, 0, 10)])
+def test_stored_trapped_equilibrium_table_matches_the_generator(cell):
+    j, b, k = cell
+    alphas, etas = luts._alpha_nodes(luts.N_FE_ALPHA), luts._tir_eta_nodes(luts.N_FE_ETA)
+    assert luts.table("coat_trapped_equilibrium")[j, b, k] == pytest.approx(
+        luts_build.coat_trapped_equilibrium_cell(float(alphas[j]), float(alphas[b]), float(etas[k])), abs=1e-6)
+
+
+def test_first_escape_reads_its_folded_table_between_the_index_nodes():
+    """The model's look-up of the folded 4D table: on a node the stored value, between two index
+    nodes the blend of the two eta blocks, and within the generator's own value there (index 1.6
+    between the nodes 1.5 and 1.667: the table's interpolation error, a few hundredths)."""
+    from lamella.core.models.fgd import coat_first_escape
+
+    ops = NumpyOps()
+    alphas, etas = luts._alpha_nodes(luts.N_FE_ALPHA), luts._tir_eta_nodes(luts.N_FE_ETA)
+    t = luts.table("coat_first_escape")
+    i, j, b, k = 6, 5, 4, 7
+    mu, ac, ab = i / (luts.N_FE_MU - 1.0), float(alphas[j]), float(alphas[b])
+    assert float(coat_first_escape(ops, mu, ac, ab, 1.0 / float(etas[k]))) == pytest.approx(
+        float(t[i, j, k * luts.N_FE_ALPHA + b]), abs=1e-6)
+    n = 1.6
+    w = (1.0 / n - etas[k - 1]) / (etas[k] - etas[k - 1])
+    blend = (1.0 - w) * t[i, j, (k - 1) * luts.N_FE_ALPHA + b] + w * t[i, j, k * luts.N_FE_ALPHA + b]
+    got = float(coat_first_escape(ops, mu, ac, ab, n))
+    assert got == pytest.approx(float(blend), abs=1e-5)
+    assert got == pytest.approx(luts_build.coat_first_escape_cell(mu, ac, ab, 1.0 / n), abs=0.03)
 
 
 def test_trapped_escape_is_exact_in_its_limits_and_traps_from_the_denser_side():

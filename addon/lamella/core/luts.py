@@ -29,6 +29,15 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
 ``dielectric_trapped_escape`` (3D, the same axes): of the light that interface reflects back, the
   share that crosses it on its next arrival after a mirror sends it back: how easily light trapped
   under a rough coat escapes (``lamella_dev.luts_build``).
+``coat_first_escape`` (4D, stored folded as 3D: view cosine x coat alpha x (base alpha, eta)): of
+  the light refracted into one rough coat and reflected by a rough base below it (a perfect
+  reflector: the share is geometric), the share that crosses the coat on its first way up; eta =
+  1 / n of the coat (the ``tir`` table's axis). The base axis runs fastest within the folded last
+  axis, one block of ``N_FE_ALPHA`` nodes per eta node; a look-up reads the two eta blocks around it
+  and blends them (``models.fgd.coat_first_escape``).
+``coat_trapped_equilibrium`` (3D, coat alpha x base alpha x eta): of the light trapped between
+  that coat and base after some round trips, the share that crosses the coat per round trip (it
+  has forgotten the view; ``lamella_dev.luts_build``).
 
 Axes are normalised to [0, 1] for look-ups; the node positions are given by the axis maps below.
 Tables are written as ZIP-compressed float32 EXR in ``lamella/data/luts`` (3D tables as an atlas of
@@ -134,6 +143,9 @@ class TableSpec:
 
 N_MU, N_ALPHA, N_TIR_U, N_TIR_ETA, N_HAT = 32, 32, 32, 17, 24
 N_MS_X, N_MS_ALPHA, N_MS_ETA = 41, 16, 13  # 41: MS_KNEE = 0.6 is node 24
+# the trapping tables: view cosine (linear), coat and base alpha (alpha_to_coord), eta = 1 / n
+# (tir_eta_to_coord: n from 1 to 5, 1.5 on a node)
+N_FE_MU, N_FE_ALPHA, N_FE_ETA = 16, 10, 13
 # Cosine nodes of the Fresnel quadrature, denser toward grazing where Fresnel curves bend
 # (24 nodes at t^1.5 measured best among 12/24/32 nodes and exponents 2/1.5/1.3).
 FRESNEL_NODES = tuple(float(x) for x in np.linspace(0.0, 1.0, N_HAT) ** 1.5)
@@ -146,6 +158,10 @@ SPECS = {
                                        (N_MS_X, N_MS_ALPHA, N_MS_ETA)),
     "dielectric_trapped_escape": TableSpec("dielectric_trapped_escape", "dielectric_trapped_escape.exr", "Y",
                                            (N_MS_X, N_MS_ALPHA, N_MS_ETA)),
+    "coat_first_escape": TableSpec("coat_first_escape", "coat_first_escape.exr", "Y",
+                                   (N_FE_MU, N_FE_ALPHA, N_FE_ALPHA * N_FE_ETA)),
+    "coat_trapped_equilibrium": TableSpec("coat_trapped_equilibrium", "coat_trapped_equilibrium.exr", "Y",
+                                          (N_FE_ALPHA, N_FE_ALPHA, N_FE_ETA)),
 }
 
 # 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:
@@ -274,9 +290,16 @@ def write_exr(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[P
 
 
 def write_tables(tables: dict[str, np.ndarray], out_dir: Path = DATA_DIR) -> list[Path]:
-    """Every table: the EXR files (``write_exr``) and ``tables.npz``."""
+    """The EXR files of ``tables`` (``write_exr``) and ``tables.npz`` with every table of ``SPECS``:
+    those of ``tables``, the others as ``out_dir``'s ``tables.npz`` holds them (a table generated
+    again alone)."""
     written = write_exr(tables, out_dir)
-    np.savez_compressed(out_dir / NPZ_FILE, **{k: v.astype(np.float32) for k, v in tables.items()})
+    kept = {}
+    if set(SPECS) - set(tables):
+        with np.load(out_dir / NPZ_FILE) as npz:
+            kept = {k: np.asarray(npz[k]) for k in SPECS if k not in tables}
+    np.savez_compressed(out_dir / NPZ_FILE, **{k: np.asarray(v, dtype=np.float32)
+                                               for k, v in {**kept, **tables}.items()})
     _cache.clear()
     return written + [out_dir / NPZ_FILE]
 

@@ -44,7 +44,7 @@ class NumpyOps(Ops):
 
     # ------------------------------------------------------------------ math
     def apply(self, op: TracedOp, *xs):
-        """sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function
+        """sqrt, exp, log, pow, abs, min, max, cos, sin, atan2, floor and any registered function
         (``ir.traced_ops``), in this backend's precision."""
         return op.numpy(self, *xs)
 

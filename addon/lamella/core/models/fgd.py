@@ -28,7 +28,7 @@ def gd(ops, mu, alpha):
 ALPHA_BLEND = 0.02
 
 
-def _smooth_weight(ops, alpha):
+def smooth_weight(ops, alpha):
     """exp(-(alpha / ALPHA_BLEND)^2): the weight of the smooth interface's exact value."""
     a = alpha * (1.0 / ALPHA_BLEND)
     return ops.exp(-(a * a))
@@ -57,7 +57,7 @@ def fgd_quadrature(ops, mu, alpha, fresnel):
         h = _hat(ops, mu, j)
         rough = rough + f * (ops.lut("fresnel_hat_delta", cm, ca, j / (n - 1.0)) + h)
         interp = interp + f * h
-    return ops.clamp(rough + (fresnel(mu) - interp) * _smooth_weight(ops, alpha), 0.0, 1.0)
+    return ops.clamp(rough + (fresnel(mu) - interp) * smooth_weight(ops, alpha), 0.0, 1.0)
 
 
 def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
@@ -76,7 +76,7 @@ def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
     if multiple:
         rough = ops.lut("dielectric_rough_reflect", luts.ms_x_to_coord(ops, mu, eta),
                         luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
-        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * _smooth_weight(ops, alpha), 0.0, 1.0)
+        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * smooth_weight(ops, alpha), 0.0, 1.0)
     return fgd_quadrature(ops, mu, alpha, lambda c: fresnel_dielectric(ops, c, eta))
 
 
@@ -91,7 +91,32 @@ def trapped_escape(ops, mu, alpha, eta):
     rough = ops.lut("dielectric_trapped_escape", luts.ms_x_to_coord(ops, mu, eta),
                     luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
     smooth = 1.0 - fresnel_dielectric(ops, mu, eta)
-    return ops.clamp(rough + (smooth - rough) * _smooth_weight(ops, alpha), 0.0, 1.0)
+    return ops.clamp(rough + (smooth - rough) * smooth_weight(ops, alpha), 0.0, 1.0)
+
+
+def coat_first_escape(ops, mu, alpha_coat, alpha_base, n):
+    """Of the light one rough coat (index ``n``, roughness ``alpha_coat``) refracts in from the view
+    of cosine ``mu`` and a base of roughness ``alpha_base`` reflects, the share that crosses the
+    coat on its first way up (the ``coat_first_escape`` table: random walks on both microsurfaces,
+    the base reflecting everything). A 4D table stored folded: the two eta blocks around
+    1 / ``n``, blended."""
+    x = luts.tir_eta_to_coord(ops, 1.0 / n) * (luts.N_FE_ETA - 1)
+    j = ops.min(ops.floor(x), luts.N_FE_ETA - 2)
+    f = x - j
+    b = luts.alpha_to_coord(ops, alpha_base) * (luts.N_FE_ALPHA - 1)
+    last = 1.0 / (luts.N_FE_ALPHA * luts.N_FE_ETA - 1)
+    c0, c1 = ops.clamp(mu, 0.0, 1.0), luts.alpha_to_coord(ops, alpha_coat)
+    lo = ops.lut("coat_first_escape", c0, c1, (j * luts.N_FE_ALPHA + b) * last)
+    hi = ops.lut("coat_first_escape", c0, c1, ((j + 1.0) * luts.N_FE_ALPHA + b) * last)
+    return ops.clamp(lo + (hi - lo) * f, 0.0, 1.0)
+
+
+def coat_trapped_equilibrium(ops, alpha_coat, alpha_base, n):
+    """Of the light trapped between one rough coat (index ``n``) and its base after a few round
+    trips, the share that crosses the coat per round trip (the ``coat_trapped_equilibrium``
+    table): the same for every view."""
+    return ops.clamp(ops.lut("coat_trapped_equilibrium", luts.alpha_to_coord(ops, alpha_coat),
+                             luts.alpha_to_coord(ops, alpha_base), luts.tir_eta_to_coord(ops, 1.0 / n)), 0.0, 1.0)
 
 
 def fgd_conductor(ops, mu, alpha, eta: RGB, k: RGB) -> RGB:

@@ -150,7 +150,7 @@ class Tracer(Ops):
         return e
 
     # ---------------------------------------------------------------- ops
-    # sqrt, exp, log, pow, abs, min, max, cos, sin, atan2 and any registered function: ``traced_ops``
+    # sqrt, exp, log, pow, abs, min, max, cos, sin, atan2, floor and any registered function: ``traced_ops``
     def clamp(self, x, lo, hi): return self.node("min", self.node("max", x, lo), hi)
 
     def select(self, cond, a, b):

@@ -128,6 +128,8 @@ for _op in (
     TracedOp("sin", 1, lambda ops, x: np.sin(x), _fold(math.sin), "sin", _math_node("SINE"), "sine"),
     TracedOp("atan2", 2, lambda ops, y, x: np.arctan2(y, x), math.atan2, "atan2", _math_node("ARCTAN2"),
              "angle of (x, y)"),
+    TracedOp("floor", 1, lambda ops, x: np.floor(x), _fold(lambda x: float(math.floor(x))), "floor",
+             _math_node("FLOOR"), "largest whole number not above"),
 ):
     register(_op)
 

@@ -54,6 +54,10 @@ _TABLE_ROLES = {
                              "on its microsurface (Heitz et al. 2016): the reflectance from inside a coat",
     "dielectric_trapped_escape": "how easily the light a rough interface reflects back into a coat comes "
                                  "through it again (Heitz et al. 2016's walk): light trapped under a coat",
+    "coat_first_escape": "how much of the light a base reflects under one rough coat crosses it on its first "
+                         "way up, for the view (random walks on both microsurfaces)",
+    "coat_trapped_equilibrium": "how much of the light trapped between one rough coat and its base crosses it "
+                                "per later round trip",
 }
 
 
