@@ -128,8 +128,13 @@ def test_no_regression_against_the_energy_conserving_references(rows_multiple, c
                 assert same_figure(now[key], then[key]), (case, model, wi, key, now[key], then[key])
 
 
-@pytest.mark.parametrize("case", ["rotated_30", "rotated_60", "rotated_90"])
+@pytest.mark.parametrize("case", ["rotated_30", "rotated_60"])
 def test_yamaguchi_beats_weier_on_rotated_interfaces(rows, case):
+    """Yamaguchi et al. 2019's covariance against Weier and Belcour 2020's per-axis variances where
+    the coat's and the base's axes are turned against each other. (rotated_90 is not such a case:
+    its axes stay on the frame's, swapped, which per-axis variances hold exactly; there the two
+    differ by their roughness mappings, and weier2020 measures ahead at normal incidence, behind at
+    60 degrees.)"""
     mean = {m: np.mean([rows[(case, m, wi)]["rel_l1"] for wi in suite.WI_DEGREES])
             for m in ("yamaguchi2019", "weier2020")}
     assert mean["yamaguchi2019"] < mean["weier2020"], mean

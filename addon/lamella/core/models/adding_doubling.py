@@ -123,7 +123,7 @@ YAMAGUCHI2019 = Variant("yamaguchi2019", CovarianceVariance, MAPPINGS["belcour"]
 # Yamaguchi et al. 2019 with the refinements, the mapping's exponent 1.18 (spreads add closer to
 # their root sum of squares than with Belcour's 1.1): measured on the suite and the hold-out
 # stacks (``bench/interface_variants.md``), every (case, angle) within 0.02 of yamaguchi2019's
-# error or below it; at 1.16 and 1.20 one pair rises by more
+# error or below it; at 1.16 the suite's mean is higher, at 1.20 one pair rises by more
 YAMAGUCHI_REFINED = Variant("yamaguchi_refined", CovarianceVariance, BelcourMapping(1.18), jacobians="roughness",
                             refraction_spread="across down", saturation=0.5)
 
