@@ -308,7 +308,7 @@ def generate_trapping(processes: int = 2) -> dict[str, np.ndarray]:
     on both microsurfaces). A coated conductor returns what its base reflects in round trips:
     the first escapes at a share that depends on the view (for a coat of alpha 0.3, index 1.5, over
     a mirror: 0.85 at normal incidence, 0.28 at 75 degrees), the later ones at a share that does not
-    (0.28), because the trapped light has forgotten where it came from. About 15 minutes on two
+    (0.28), because the trapped light has forgotten where it came from. About 7 minutes on two
     processes."""
     from multiprocessing import Pool
 
