@@ -297,7 +297,9 @@ def coat_trapped_equilibrium_cell(a_coat: float, a_base: float, eta: float, walk
     return float(crossed_sum / arrived) if arrived else 1.0
 
 
-def _fe_cells(args):
+def _trapping_cell(args):
+    """One cell of either trapping table, ``("first" or "eq", the cell's arguments)`` (module level:
+    what a process pool can send)."""
     kind, x = args
     return coat_first_escape_cell(*x) if kind == "first" else coat_trapped_equilibrium_cell(*x)
 
@@ -322,7 +324,7 @@ def generate_trapping(processes: int = 2) -> dict[str, np.ndarray]:
     eq = [("eq", (float(ac), float(ab), float(e))) for ac in alphas for ab in alphas for e in etas]
     jobs = first + eq
     with Pool(processes) as pool:
-        values = list(tqdm(pool.imap(_fe_cells, jobs, chunksize=16), total=len(jobs), desc="trapping tables"))
+        values = list(tqdm(pool.imap(_trapping_cell, jobs, chunksize=16), total=len(jobs), desc="trapping tables"))
     fe = np.asarray(values[:len(first)]).reshape(N_FE_MU, N_FE_ALPHA, N_FE_ETA * N_FE_ALPHA)
     te = np.asarray(values[len(first):]).reshape(N_FE_ALPHA, N_FE_ALPHA, N_FE_ETA)
     return {"coat_first_escape": fe, "coat_trapped_equilibrium": te}
