@@ -62,7 +62,7 @@ from .hg import belcour_variance_of_g
 from .rgb import RGB
 from .roughness import MAPPINGS, BelcourMapping
 from .types import COS_FLOOR, Lobe, layer_normal, layer_params
-from .variance import AxisVariance, CovarianceVariance, ScalarVariance
+from .variance import AxisVariance, CovarianceVariance, ScalarVariance, rms_alpha
 
 
 JACOBIANS = ("variance", "roughness")
@@ -189,7 +189,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
     for index, p in enumerate(coats):
         ops.set_scope(f"coat{index}")
         n12 = p["ior"] / n_above
-        refractions.append((_isotropic_equivalent(ops, p), n12))
+        refractions.append((rms_alpha(ops, p["ax"], p["ay"]), n12))
         energies, kappa, ctt, tsx, tsy, j12, j21, s_r12, s_t12, s_t21, s_e12 = _dielectric_interface(
             ops, variant, p, sx, sy, cti, n_above, n12, stack.isotropic)
         added, weights, spreads, lobe = _add_interface(
@@ -466,33 +466,30 @@ def _round_trips(ops, refractions, n, base, c0, c_in, added: _Added, interiors: 
     n sin(theta) is kept through parallel interfaces) and of the slope variance of every interface
     in proportion to how much it refracts, alpha^2 = sum alpha_i^2 min(((n_i - 1) / (n - 1))^2, 1)
     (n_i the interface's index ratio; an index-matched interface adds nothing, one coat is itself).
+    An anisotropic interface counts by the isotropic roughness of its slope variance
+    (``variance.rms_alpha``; the mean or geometric mean of the axes made the trapped light of stacks
+    with one nearly smooth axis too dark at grazing views: rotated_90 at 75 degrees 0.336 -> 0.358
+    and 0.378 relative L1, against 0.336 with it).
     What the stack transmits at the mean direction beyond that coat's transmittance there (other
     interfaces, a film) scales the shares: up = Ti0 / T(c_in); of the light the interiors let through
-    along the mean path (``interiors``), what does not leave comes back down along the trapped light's
-    own paths (``A0i``, ``_trapped_round_trip``): first = F up, back = (a - F up) A0i, later = E up,
-    returns = (a - E up) A0i. Where both the coats and the base are smooth, nothing is trapped past
+    along the mean path (``interiors``, a), what does not leave comes back down along the trapped
+    light's own paths (``A0i``, ``_trapped_round_trip``): first = F up, back = (a - F up) A0i,
+    later = E up, returns = (a - E up) A0i. up is at most a: the stack transmits no more than its
+    interiors let through (the coat's own transmittance comes from an anisotropic fetch in ``Ti0``
+    and from the isotropic roughness here, which may differ by a little). Where both the coats and the base are smooth, nothing is trapped past
     the escape cone and the adding equations are exact: the tables hand over to them as the
     roughness goes to 0 (``fgd.smooth_weight``)."""
     variance = 0.0
     for a, n12 in refractions:
         share = ops.min((n12 - 1.0) * (n12 - 1.0) / ops.max((n - 1.0) * (n - 1.0), 1e-12), 1.0)
         variance = variance + a * a * share
-    a_coat, a_base = ops.sqrt(variance), _isotropic_equivalent(ops, base)
+    a_coat, a_base = ops.sqrt(variance), rms_alpha(ops, base["ax"], base["ay"])
     first = coat_first_escape(ops, c0, a_coat, a_base, n)
     later = coat_trapped_equilibrium(ops, a_coat, a_base, n)
     bare = 1.0 - fgd_dielectric(ops, c_in, a_coat, 1.0 / n, multiple=True)
     up = RGB(*(ops.min(t / ops.max(bare, 1e-6), i) for t, i in zip(added.Ti0, interiors)))
     weight = 1.0 - smooth_weight(ops, ops.sqrt(variance + a_base * a_base))
     return _RoundTrips(up * first, (interiors - up * first) * A0i, up * later, (interiors - up * later) * A0i, weight)
-
-
-def _isotropic_equivalent(ops, p):
-    """The roughness of the isotropic microsurface with the slope variance of layer ``p``'s,
-    sqrt((ax^2 + ay^2) / 2): what the round trips' tables take for an anisotropic interface. (Their
-    mean or geometric mean made the trapped light of stacks with one nearly smooth axis too dark
-    at grazing views: rotated_90 at 75 degrees 0.336 -> 0.358 and 0.378 relative L1, against 0.336
-    with this.)"""
-    return ops.sqrt(0.5 * (p["ax"] * p["ax"] + p["ay"] * p["ay"]))
 
 
 def _adding_energies(ops, interface, added: _Added, tir, A0i, kappa: RGB, again: RGB | None = None,
