@@ -8,9 +8,9 @@ import math
 
 import numpy as np
 
-from lamella.core.luts import (N_ALPHA, N_FE_ALPHA, N_FE_ETA, N_FE_MU, N_HAT, N_MS_ALPHA, N_MS_ETA, N_MS_X, N_MU,
-                               N_TIR_ETA, N_TIR_U, REFRACT_ETA, _alpha_nodes, _ms_eta_nodes, _mu_nodes, _tir_eta_nodes,
-                               hat, ms_sine)
+from lamella.core.luts import (N_ALPHA, N_FE_ALPHA, N_FE_ETA, N_FE_MU, N_HAT, N_HG_C, N_HG_G, N_HG_S, N_MS_ALPHA,
+                               N_MS_ETA, N_MS_X, N_MU, N_TIR_ETA, N_TIR_U, REFRACT_ETA, _alpha_nodes, _g_nodes,
+                               _ms_eta_nodes, _mu_nodes, _tir_eta_nodes, hat, ms_sine)
 
 from .microsurface import sample_vndf, smith_lambda
 
@@ -330,12 +330,53 @@ def generate_trapping(processes: int = 2) -> dict[str, np.ndarray]:
     return {"coat_first_escape": fe, "coat_trapped_equilibrium": te}
 
 
+HG_G_LIMIT = 0.99  # the g = -1 and 1 nodes are integrated at this |g| (the half-lobes' limits are continuous)
+HG_QUADRATURE = np.polynomial.legendre.leggauss(400)  # over the scattering cosine of the backward half
+
+
+def backward_half_moments(g: float, s: float, cos_cone: float) -> tuple[float, float]:
+    """The backward half (scattering cosine u < 0) of a HG phase function of asymmetry ``g`` about a
+    primary going down at sine ``s``, d = (s, 0, -c): (its share inside the cone of cosine
+    ``cos_cone`` about the normal, its mean |v_z|). A direction of scattering cosine u and azimuth
+    phi about d has v_z = A + B cos(phi), A = -c u, B = s sqrt(1 - u^2); over the azimuth the share
+    with v_z > k is arccos((k - A) / B) / pi and the mean |A + B cos(phi)| is (A (2 phi0 - pi) + 2 B
+    sin(phi0)) / pi, phi0 = arccos(-A / B), where B > |A| (|A| otherwise); the scattering cosine by
+    Gauss-Legendre quadrature with the phase function's weight, normalised over the half."""
+    c = math.sqrt(max(1.0 - s * s, 0.0))
+    x, w = HG_QUADRATURE
+    u = 0.5 * (x - 1.0)
+    w = w * (1.0 - g * g) / (1.0 + g * g - 2.0 * g * u) ** 1.5
+    w = w / w.sum()
+    a = -c * u
+    b = s * np.sqrt(np.maximum(1.0 - u * u, 0.0))
+    tiny = b < 1e-12
+    bs = np.where(tiny, 1.0, b)
+    share = np.where(tiny, (a > cos_cone).astype(float), np.arccos(np.clip((cos_cone - a) / bs, -1.0, 1.0)) / np.pi)
+    r = np.clip(-a / bs, -1.0, 1.0)
+    phi0 = np.arccos(r)
+    mixed = (a * (2.0 * phi0 - np.pi) + 2.0 * b * np.sqrt(1.0 - r * r)) / np.pi
+    mean_abs = np.where(b > np.abs(a), mixed, np.abs(a))
+    return float((w * share).sum()), float((w * mean_abs).sum())
+
+
+def generate_backward_half() -> dict[str, np.ndarray]:
+    """``hg_backward_escape`` and ``hg_backward_cosine`` (``backward_half_moments`` at every node; a
+    few seconds)."""
+    gs = np.clip(_g_nodes(N_HG_G), -HG_G_LIMIT, HG_G_LIMIT)
+    ss = np.linspace(0.0, 1.0, N_HG_S)
+    cs = np.linspace(0.0, 1.0, N_HG_C)
+    esc = np.array([[[backward_half_moments(float(g), float(s), float(c))[0] for c in cs] for s in ss] for g in gs])
+    cos = np.array([[backward_half_moments(float(g), float(s), 0.0)[1] for s in ss] for g in gs])
+    return {"hg_backward_escape": esc, "hg_backward_cosine": cos}
+
+
 GENERATORS = {
     "ggx_albedo": generate_ggx_albedo, "fresnel_hat_delta": generate_ggx_albedo, "tir": generate_tir,
     "ggx_refract_albedo": generate_refract_albedo,
     "dielectric_rough_reflect": generate_dielectric_rough_reflect,
     "dielectric_trapped_escape": generate_dielectric_trapped_escape,
     "coat_first_escape": generate_trapping, "coat_trapped_equilibrium": generate_trapping,
+    "hg_backward_escape": generate_backward_half, "hg_backward_cosine": generate_backward_half,
 }
 
 

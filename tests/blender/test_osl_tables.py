@@ -33,6 +33,8 @@ READS = {
     "dielectric_trapped_escape": 'lamella_lut3(concat(dir, "/dielectric_trapped_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "coat_first_escape": 'lamella_lut3(concat(dir, "/coat_first_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
     "coat_trapped_equilibrium": 'lamella_lut3(concat(dir, "/coat_trapped_equilibrium.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "hg_backward_escape": 'lamella_lut3(concat(dir, "/hg_backward_escape.exr"), c0, c1, c2, {n0}, {n1}, {n2})',
+    "hg_backward_cosine": 'lamella_lut2(concat(dir, "/hg_backward_cosine.exr"), c0, c1, {n0}, {n1})',
 }
 
 

@@ -1,5 +1,7 @@
 """The pre-integrated tables: stored files match their generator, and the error between nodes
 stays within the figures quoted in bench/luts.md."""
+import math
+
 import numpy as np
 import pytest
 
@@ -18,7 +20,7 @@ def test_stored_tables_have_their_shape_and_range(name):
     assert t.shape == luts.SPECS[name].shape and t.dtype == np.float32
     assert np.isfinite(t).all()
     if name in ("ggx_albedo", "tir", "ggx_refract_albedo", "dielectric_rough_reflect", "dielectric_trapped_escape",
-                "coat_first_escape", "coat_trapped_equilibrium"):
+                "coat_first_escape", "coat_trapped_equilibrium", "hg_backward_escape", "hg_backward_cosine"):
         assert (t >= 0).all() and (t <= 1).all()
 
 
@@ -67,6 +69,51 @@ def test_stored_trapped_equilibrium_table_matches_the_generator(cell):
     alphas, etas = luts._alpha_nodes(luts.N_FE_ALPHA), luts._tir_eta_nodes(luts.N_FE_ETA)
     assert luts.table("coat_trapped_equilibrium")[j, b, k] == pytest.approx(
         luts_build.coat_trapped_equilibrium_cell(float(alphas[j]), float(alphas[b]), float(etas[k])), abs=1e-6)
+
+
+def test_stored_half_lobe_tables_match_the_generator():
+    """``hg_backward_escape`` and ``hg_backward_cosine`` regenerated (a second): not stale."""
+    fresh = luts_build.generate_backward_half()
+    for name, arr in fresh.items():
+        np.testing.assert_allclose(luts.table(name), arr, atol=2e-6)
+
+
+@pytest.mark.parametrize("g, deg, n", [(0.9, 0.0, 1.5), (0.9, 60.0, 1.5), (0.3, 75.0, 1.5), (0.6, 45.0, 2.0),
+                                       (-0.5, 30.0, 1.3), (0.95, 80.0, 1.0)])
+def test_half_lobe_moments_match_sampled_scattering(g, deg, n):
+    """The quadrature of ``backward_half_moments`` against directions sampled from the backward
+    half of the HG phase function (its inverse CDF) about a primary refracted in at ``deg`` through index ``n``: the share
+    of the backward half in the escape cone and its mean |v_z|, within the sampling noise."""
+    rng = np.random.default_rng(7)
+    m = 200_000  # the share's standard error at most 0.0011, the mean's 0.0007
+    # the inverse CDF's u maps to the scattering cosine increasingly, -1 at u = 0 and 0 at u0
+    u0 = ((1.0 - g * g) / math.sqrt(1.0 + g * g) - (1.0 - g)) / (2.0 * g)
+    s_ = (1.0 - g * g) / (1.0 - g + 2.0 * g * u0 * rng.random(m))
+    ct = np.minimum((1.0 + g * g - s_ * s_) / (2.0 * g), 0.0)
+    st = np.sqrt(np.maximum(1.0 - ct * ct, 0.0))
+    ph = 2.0 * np.pi * rng.random(ct.size)
+    sine = np.sin(np.radians(deg)) / n
+    c = np.sqrt(1.0 - sine * sine)
+    # the primary d = (sine, 0, -c); e1 = (c, 0, sine) completes it in the plane of incidence
+    vz = -c * ct + sine * st * np.cos(ph)
+    cos_cone = math.sqrt(max(1.0 - 1.0 / (n * n), 0.0))
+    share, mean_abs = luts_build.backward_half_moments(g, sine, cos_cone)
+    assert share == pytest.approx(float(np.mean(vz > cos_cone)), abs=0.005)
+    assert mean_abs == pytest.approx(float(np.mean(np.abs(vz))), abs=0.003)
+
+
+@pytest.mark.parametrize("g", [-0.8, -0.3, 0.0, 0.3, 0.9])
+def test_half_lobe_tables_at_normal_incidence_are_the_closed_forms(g):
+    """Untilted, the half-lobe's share in a cone is ``forward_cone_fraction(-g)`` and its mean
+    |cosine| ``backward_mean_cosine(g)``: the tables read on their g nodes give both."""
+    from lamella.core.models.hg import (backward_abs_cosine, backward_escape, backward_mean_cosine,
+                                        forward_cone_fraction)
+
+    ops = NumpyOps()
+    for cos_cone in (0.0, 0.5, 0.745, 0.9375):
+        assert float(backward_escape(ops, g, 0.0, cos_cone)) == pytest.approx(
+            float(forward_cone_fraction(ops, -g, cos_cone)), abs=2e-3)
+    assert float(backward_abs_cosine(ops, g, 0.0)) == pytest.approx(float(backward_mean_cosine(ops, g)), abs=1e-3)
 
 
 def test_first_escape_reads_its_folded_table_between_the_index_nodes():

@@ -60,6 +60,50 @@ def test_kubelka_munk_matches_the_ode_and_its_limits():
     assert math.isclose(r, 0.6 / (1.0 + 0.8), rel_tol=1e-12)
 
 
+@pytest.mark.parametrize("a_fwd, a_back, beta, h", [(0.6, 1.4, 0.4, 0.7), (1.2, 2.9, 0.1, 3.0), (0.5, 0.5, 0.5, 2.0),
+                                                    (2.0, 0.8, 0.3, 1.5), (1.0, 2.5, 0.2, 40.0)])
+def test_kubelka_munk_with_unequal_attenuations_matches_the_ode(a_fwd, a_back, beta, h):
+    """The flux going the light's way attenuated at a_fwd, the one coming back at a_back
+    (``half_difference``, what ``backward_lengthening`` makes): against a direct integration of
+    that two-flux ODE, and finite for a thick slab (the exponent (d - gamma) h never positive)."""
+    ops = NumpyOps()
+    alpha, d = 0.5 * (a_fwd + a_back), 0.5 * (a_back - a_fwd)
+    r, t = kubelka_munk(ops, np.float64(alpha), np.float64(beta), np.float64(h), half_difference=np.float64(d))
+    assert np.isfinite(r) and np.isfinite(t) and 0.0 <= t <= 1.0 and 0.0 <= r <= 1.0
+    if h > 10.0:
+        assert math.isclose(r, beta / (alpha + math.sqrt(alpha * alpha - beta * beta)), rel_tol=1e-9)
+        return
+    n = 20000
+    dz = h / n
+    jp, jm = 1.0, float(r)
+
+    def deriv(p, m):
+        return -a_fwd * p + beta * m, a_back * m - beta * p
+
+    for _ in range(n):  # RK2
+        d1p, d1m = deriv(jp, jm)
+        d2p, d2m = deriv(jp + 0.5 * dz * d1p, jm + 0.5 * dz * d1m)
+        jp, jm = jp + dz * d2p, jm + dz * d2m
+    assert abs(jm) < 1e-6 and abs(jp - t) < 1e-6, (jp, t, jm)
+
+
+def test_backward_lengthening_follows_the_half_lobe():
+    """The back-scattered flux crosses a depth d along d / m, m the mean |cosine| of the backward
+    half-lobe: mu / m per unit of the mean path (2.41 at normal incidence for g = 0.9), never below
+    the forward flux's factor, none for media that are not forward (g <= 0)."""
+    from lamella.core.models.hg import backward_mean_cosine
+    from lamella.core.models.homogeneous_medium import backward_lengthening
+
+    ops = NumpyOps()
+    assert float(backward_lengthening(ops, 1.0, 0.9, 1.0)) == pytest.approx(1.0 / float(backward_mean_cosine(ops, 0.9)),
+                                                                         rel=1e-3)
+    assert float(backward_lengthening(ops, 3.0, 0.9, 1.0)) == 3.0
+    for g in (-0.5, 0.0):
+        assert float(backward_lengthening(ops, 1.2, g, 0.8)) == 1.2
+    oblique = float(backward_lengthening(ops, 1.0, 0.9, 0.8))
+    assert 1.0 < oblique < 0.8 / 0.414
+
+
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_slab_factors_stay_in_range_at_any_depth(dtype):
     ops = NumpyOps(dtype)

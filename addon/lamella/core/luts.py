@@ -38,6 +38,12 @@ Tables (all GGX with height-correlated Smith masking, the convention of ``models
 ``coat_trapped_equilibrium`` (3D, coat alpha x base alpha x eta): of the light trapped between
   that coat and base after some round trips, the share that crosses the coat per round trip (it
   has forgotten the view; ``lamella_dev.luts_build``).
+``hg_backward_escape`` (3D, g x sine x escape-cone cosine): of the backward half of a
+  Henyey-Greenstein phase function of asymmetry g about a primary going down at that sine (the
+  light a medium back-scatters once), the share inside the escape cone about the normal (what
+  leaves a coat through a smooth top; by numerical integration, ``lamella_dev.luts_build``).
+``hg_backward_cosine`` (2D, g x sine): the mean |cosine to the normal| of that half-lobe, the
+  depth it crosses per unit path (``models.homogeneous_medium.backward_lengthening``).
 
 Axes are normalised to [0, 1] for look-ups; the node positions are given by the axis maps below.
 Tables are written as ZIP-compressed float32 EXR in ``lamella/data/luts`` (3D tables as an atlas of
@@ -121,6 +127,15 @@ def ms_sine(c: float, eta: float) -> float:
     return eta + v * (1.0 - eta)
 
 
+def g_to_coord(ops, g):
+    """The asymmetry axis of the half-lobe tables: g from -1 to 1, linear."""
+    return ops.clamp(0.5 + 0.5 * g, 0.0, 1.0)
+
+
+def _g_nodes(n):
+    return np.linspace(-1.0, 1.0, n)
+
+
 def _mu_nodes(n):
     return np.linspace(0.0, 1.0, n) ** 2
 
@@ -146,6 +161,9 @@ N_MS_X, N_MS_ALPHA, N_MS_ETA = 41, 16, 13  # 41: MS_KNEE = 0.6 is node 24
 # the trapping tables: view cosine (linear), coat and base alpha (alpha_to_coord), eta = 1 / n
 # (tir_eta_to_coord: n from 1 to 5, 1.5 on a node)
 N_FE_MU, N_FE_ALPHA, N_FE_ETA = 16, 10, 13
+# the half-lobe tables: g (g_to_coord), the primary's sine and the escape cone's cosine (linear; the
+# sine's nodes twice as dense: near grazing the share turns fast)
+N_HG_G, N_HG_S, N_HG_C = 21, 33, 17
 # Cosine nodes of the Fresnel quadrature, denser toward grazing where Fresnel curves bend
 # (24 nodes at t^1.5 measured best among 12/24/32 nodes and exponents 2/1.5/1.3).
 FRESNEL_NODES = tuple(float(x) for x in np.linspace(0.0, 1.0, N_HAT) ** 1.5)
@@ -162,6 +180,8 @@ SPECS = {
                                    (N_FE_MU, N_FE_ALPHA, N_FE_ALPHA * N_FE_ETA)),
     "coat_trapped_equilibrium": TableSpec("coat_trapped_equilibrium", "coat_trapped_equilibrium.exr", "Y",
                                           (N_FE_ALPHA, N_FE_ALPHA, N_FE_ETA)),
+    "hg_backward_escape": TableSpec("hg_backward_escape", "hg_backward_escape.exr", "Y", (N_HG_G, N_HG_S, N_HG_C)),
+    "hg_backward_cosine": TableSpec("hg_backward_cosine", "hg_backward_cosine.exr", "Y", (N_HG_G, N_HG_S)),
 }
 
 # 3D tables also written with four consecutive slices of the last axis per RGBA texel, for OSL:

@@ -1,7 +1,9 @@
 """Henyey-Greenstein statistics of the transfer-matrix models (Randrianandrasana et al. 2021,
-Section 4-6): the GGX alpha <-> HG asymmetry fit, the transmitted-asymmetry operator and the
-back-scattered fraction of a HG phase function."""
+Section 4-6): the GGX alpha <-> HG asymmetry fit, the transmitted-asymmetry operator, the
+back-scattered fraction of a HG phase function and where its backward half goes."""
 from __future__ import annotations
+
+from .. import luts
 
 G_ALPHA_MAX = -0.085 + 1.085 / (1.0 + 2.0 ** 1.3)  # g(alpha = 1): rougher lobes clamp to alpha 1
 
@@ -68,3 +70,21 @@ def forward_cone_fraction(ops, g, cos_cone):
     inv = 1.0 / (1.0 - gs)
     closed = (inv - 1.0 / ops.sqrt(1.0 + gs * gs - 2.0 * gs * cos_cone)) / (inv - 1.0 / ops.sqrt(1.0 + gs * gs))
     return ops.select(small, (1.0 - cos_cone) * (1.0 + 1.5 * g * cos_cone), closed)
+
+
+def backward_escape(ops, g, sine, cos_cone):
+    """Of the backward half of a HG phase function about a primary going down at ``sine`` to the
+    normal (the light a medium back-scatters once), the share inside the escape cone of cosine
+    ``cos_cone`` about the normal (the ``hg_backward_escape`` table). At normal incidence it is
+    ``forward_cone_fraction(-g, cos_cone)``; a tilted primary tilts the half-lobe's edge with it
+    and sends more of it up steeply (g = 0.9, index 1.5: 0.171 at normal incidence, 0.200 at 60
+    degrees outside), and part of it down (25 %)."""
+    return ops.clamp(ops.lut("hg_backward_escape", luts.g_to_coord(ops, g), ops.clamp(sine, 0.0, 1.0),
+                             ops.clamp(cos_cone, 0.0, 1.0)), 0.0, 1.0)
+
+
+def backward_abs_cosine(ops, g, sine):
+    """The mean |cosine to the normal| of that backward half-lobe (the ``hg_backward_cosine``
+    table): ``backward_mean_cosine(g)`` at normal incidence (0.414 at g = 0.9), more as the
+    primary tilts (0.464 at 60 degrees outside a coat of index 1.5)."""
+    return ops.clamp(ops.lut("hg_backward_cosine", luts.g_to_coord(ops, g), ops.clamp(sine, 0.0, 1.0)), 0.05, 1.0)

@@ -58,6 +58,9 @@ _TABLE_ROLES = {
                          "way up, for the view (random walks on both microsurfaces)",
     "coat_trapped_equilibrium": "how much of the light trapped between one rough coat and its base crosses it "
                                 "per later round trip",
+    "hg_backward_escape": "how much of the light a medium back-scatters once leaves through a coat's escape "
+                          "cone, for the primary's tilt (the backward half of a Henyey-Greenstein lobe)",
+    "hg_backward_cosine": "how steeply that back-scattered light goes up: the depth it crosses per unit path",
 }
 
 
