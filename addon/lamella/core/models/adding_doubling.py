@@ -146,10 +146,15 @@ class _Added:
         return _Added(self.R0i, self.T0i * t, self.Ri0 * t * t, self.Ti0 * t, self.K)
 
 
-def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
+def adding_doubling(ops, stack, wi, variant: Variant, unscattered: bool = False) -> list[Lobe]:
     """Lobes (one per reflecting interface, top to bottom, then a transmission or diffuse lobe if
     the base has one) for the incident direction ``wi = (x, y, z)`` (backend values, unit vector
     in the upper hemisphere).
+
+    ``unscattered``: the light no medium has scattered only, each scattering interior taken as
+    extinction (sigma_a + sigma_s along the mean path and along the trapped light's paths), what
+    ``transfer_matrix`` leaves to this model when it carries the scattered light itself. (A
+    Lambertian base's light goes up diffusely either way, scattered by the media on its way.)
 
     Two sets of energies are added: the interfaces' own (reflectance from below as seen from below,
     ``_dielectric_interface``), which give every lobe's weight, and Belcour 2018's symmetric ones
@@ -205,7 +210,10 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
         if "thickness" in p:
             path = p["thickness"] / ops.max(cti, COS_FLOOR)
             sig_a = p.get("sigma_a", RGB.splat(0.0))
-            if "sigma_s" in p:
+            scatters = "sigma_s" in p and not unscattered
+            if "sigma_s" in p and unscattered:
+                sig_a = sig_a + p["sigma_s"]
+            if scatters:
                 sig_t = sig_a + p["sigma_s"]
                 t = RGB(*((1.0 + ss * path) * ops.exp(-st * path) for st, ss in zip(sig_t, p["sigma_s"])))
                 s_g = Spread.isotropic(belcour_variance_of_g(ops, p["g"]))
@@ -215,7 +223,7 @@ def adding_doubling(ops, stack, wi, variant: Variant) -> list[Lobe]:
                 t = sig_a.map(lambda s: ops.exp(-s * path))
             added, weights = added.through(t), weights.through(t)
             interiors = interiors * t
-            if "sigma_s" in p:
+            if scatters:
                 A0i = A0i * t
             else:  # the light trapped under the coats crosses it along its own, longer paths
                 A0i = A0i * _trapped_round_trip(ops, sig_a, p["thickness"], p["ior"], path)
