@@ -390,12 +390,14 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
         "",
         "| stack | auto runs | why |",
         "|---|---|---|",
-        "| any coat scatters (sigma_s > 0) | tm6 | forward and back-scattered fluxes (the adding family's Belcour "
-        "2018 medium operator keeps single forward scattering only) |",
+        "| any coat scatters (sigma_s > 0) | tm6_refined | forward and back-scattered fluxes by tm6 (the adding "
+        "family's Belcour 2018 medium operator keeps single forward scattering only), the light no medium scattered "
+        "by yamaguchi_refined |",
         "| one isotropic coat over an isotropic dielectric base | endf | exact Jacobians of both refractions: "
         + _glass_plate_reading(rows_multiple or rows) + " |",
-        "| interfaces and absorbing coats, any base | yamaguchi2019 | the 2x2 covariance follows rotated anisotropy; "
-        "best or tied on these cases |",
+        "| interfaces and absorbing coats, any base | yamaguchi_refined | the 2x2 covariance follows rotated "
+        "anisotropy; Yamaguchi et al. 2019 with the refinements of `bench/interface_variants.md`, best or tied on "
+        "these cases |",
         "",
     ]
     if rows_multiple:
