@@ -331,7 +331,7 @@ def generate_trapping(processes: int = 2) -> dict[str, np.ndarray]:
 
 
 HG_G_LIMIT = 0.99  # the g = -1 and 1 nodes are integrated at this |g| (the half-lobes' limits are continuous)
-HG_QUADRATURE = np.polynomial.legendre.leggauss(400)  # over the scattering cosine of the backward half
+HG_QUADRATURE = np.polynomial.legendre.leggauss(48)  # per piece of the scattering cosine's range
 
 
 def backward_half_moments(g: float, s: float, cos_cone: float) -> tuple[float, float]:
@@ -340,11 +340,25 @@ def backward_half_moments(g: float, s: float, cos_cone: float) -> tuple[float, f
     ``cos_cone`` about the normal, its mean |v_z|). A direction of scattering cosine u and azimuth
     phi about d has v_z = A + B cos(phi), A = -c u, B = s sqrt(1 - u^2); over the azimuth the share
     with v_z > k is arccos((k - A) / B) / pi and the mean |A + B cos(phi)| is (A (2 phi0 - pi) + 2 B
-    sin(phi0)) / pi, phi0 = arccos(-A / B), where B > |A| (|A| otherwise); the scattering cosine by
-    Gauss-Legendre quadrature with the phase function's weight, normalised over the half."""
+    sin(phi0)) / pi, phi0 = arccos(-A / B), where B > |A| (|A| otherwise). Over u the two have kinks
+    (and at s = 0 steps) where A + B or A - B crosses k or 0, at the angles theta_k +- theta_t from
+    the reversed primary (cos theta_k = k, sin theta_t = s): Gauss-Legendre on each piece between
+    them, with the phase function's weight, normalised over the half."""
     c = math.sqrt(max(1.0 - s * s, 0.0))
-    x, w = HG_QUADRATURE
-    u = 0.5 * (x - 1.0)
+    tilt = math.asin(min(max(s, 0.0), 1.0))
+    cuts = {-1.0, 0.0}
+    for theta in (math.acos(min(max(cos_cone, -1.0), 1.0)), 0.5 * math.pi):
+        for t in (theta - tilt, theta + tilt):
+            u = -math.cos(t)
+            if -1.0 < u < 0.0:
+                cuts.add(u)
+    edges = sorted(cuts)
+    x, w0 = HG_QUADRATURE
+    us, ws = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        us.append(lo + (hi - lo) * 0.5 * (x + 1.0))
+        ws.append(0.5 * (hi - lo) * w0)
+    u, w = np.concatenate(us), np.concatenate(ws)
     w = w * (1.0 - g * g) / (1.0 + g * g - 2.0 * g * u) ** 1.5
     w = w / w.sum()
     a = -c * u

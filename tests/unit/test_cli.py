@@ -18,14 +18,14 @@ def test_lobes_prints_every_model(capsys):
 
 
 def test_lobes_reports_unsupported_stacks(tmp_path, capsys):
-    """A scattering coat over a diffuse base: the thin-layer model says why it cannot, auto picks tm6_refined."""
+    """A scattering coat over a diffuse base: the thin-layer model says why it cannot, auto picks tm6."""
     p = tmp_path / "fog.json"
     p.write_text(json.dumps({"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [0.5] * 3}],
                              "base": {"type": "diffuse"}}))
     assert main(["lobes", str(p), "--wi", "0"]) == 0
     out = capsys.readouterr().out
     assert "unsupported: endf: coat 0 scatters" in out
-    assert "auto (picked tm6_refined for this stack)" in out
+    assert "auto (picked tm6 for this stack)" in out
 
 
 def test_bad_stack_names_layer_and_field(tmp_path):

@@ -102,7 +102,7 @@ def test_half_lobe_moments_match_sampled_scattering(g, deg, n):
     assert mean_abs == pytest.approx(float(np.mean(np.abs(vz))), abs=0.003)
 
 
-@pytest.mark.parametrize("g", [-0.8, -0.3, 0.0, 0.3, 0.9])
+@pytest.mark.parametrize("g", [-0.8, -0.4, 0.0, 0.4, 0.8])
 def test_half_lobe_tables_at_normal_incidence_are_the_closed_forms(g):
     """Untilted, the half-lobe's share in a cone is ``forward_cone_fraction(-g)`` and its mean
     |cosine| ``backward_mean_cosine(g)``: the tables read on their g nodes give both."""
@@ -110,10 +110,10 @@ def test_half_lobe_tables_at_normal_incidence_are_the_closed_forms(g):
                                         forward_cone_fraction)
 
     ops = NumpyOps()
-    for cos_cone in (0.0, 0.5, 0.745, 0.9375):
+    for cos_cone in (0.0, 0.5, 0.75, 0.875):
         assert float(backward_escape(ops, g, 0.0, cos_cone)) == pytest.approx(
-            float(forward_cone_fraction(ops, -g, cos_cone)), abs=2e-3)
-    assert float(backward_abs_cosine(ops, g, 0.0)) == pytest.approx(float(backward_mean_cosine(ops, g)), abs=1e-3)
+            float(forward_cone_fraction(ops, -g, cos_cone)), abs=1e-4)
+    assert float(backward_abs_cosine(ops, g, 0.0)) == pytest.approx(float(backward_mean_cosine(ops, g)), abs=1e-4)
 
 
 def test_first_escape_reads_its_folded_table_between_the_index_nodes():

@@ -102,8 +102,10 @@ adding-doubling variant run with every scattering interior as extinction carries
 refinements of the interfaces' statistics, trapped light among them, are far ahead of the ones
 below for that light), the primary family here still feeds the scattered ones but draws no lobe,
 and the scattered families are scaled to what the primary model's lobes leave (``_with_primary``).
-Measured by the keep rule: suite mean 0.17026 -> 0.16564, hold-out 0.20150 -> 0.19051, no (case,
-angle) worse by more than 0.02 (milky_coat_d01 at 60 degrees 0.338 -> 0.194).
+Measured by the keep rule (as ``auto``'s choice for scattering stacks): suite mean 0.17026 ->
+0.16564, hold-out 0.20150 -> 0.19051, no (case, angle) worse by more than 0.02 (milky_coat_d01 at
+60 degrees 0.338 -> 0.194). ``auto`` keeps plain tm6 until the node group's tables over textured
+parameters follow its narrower unscattered lobe (``docs/models.md``).
 
 Interfaces: R = FGD at the mean direction (exact Fresnel, total internal reflection included),
 T = 1 - R from above; from below the primary sees the interface's whole reflectance (the
