@@ -11,10 +11,10 @@ from lamella_dev.cli import main
 def test_lobes_prints_every_model(capsys):
     assert main(["lobes", "rotated_60", "--wi", "30"]) == 0
     out = capsys.readouterr().out
-    for m in ("belcour2018", "weier2020", "yamaguchi2019", "yamaguchi_refined", "tm2", "tm6", "tm6_refined"):
+    for m in ("belcour2018", "weier2020", "yamaguchi2019", "yamaguchi_refined", "tm2", "tm6"):
         assert m in out
     assert "auto (picked yamaguchi_refined for this stack)" in out
-    assert out.count("reflection") == 16  # two lobes per model, eight models with auto
+    assert out.count("reflection") == 14  # two lobes per model, seven models with auto
 
 
 def test_lobes_reports_unsupported_stacks(tmp_path, capsys):

@@ -1,11 +1,13 @@
-"""tm6_refined: the light no medium has scattered through the interfaces by yamaguchi_refined, the
-scattered light by the six-flux transfer matrices (``transfer_matrix``, ``primary``)."""
+"""tm6_refined (a study variant, ``models.TM6_REFINED``): the light no medium has scattered through
+the interfaces by yamaguchi_refined, the scattered light by the six-flux transfer matrices
+(``transfer_matrix``, ``primary``)."""
 import itertools
 
 import numpy as np
 import pytest
 
 import lamella.core as lc
+from lamella.core.models import TM6_REFINED
 from lamella.core.stack import Stack
 from lamella_dev import suite
 
@@ -26,7 +28,7 @@ GOLD = {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1
 def test_without_scattering_it_is_yamaguchi_refined(name):
     """Nothing scatters: every flux is the primary, and the model is yamaguchi_refined exactly."""
     st = suite.load(name)
-    a, b = lc.lobes(st, WIS, "tm6_refined"), lc.lobes(st, WIS, "yamaguchi_refined")
+    a, b = lc.lobes(st, WIS, TM6_REFINED), lc.lobes(st, WIS, "yamaguchi_refined")
     assert a.kinds == b.kinds
     np.testing.assert_array_equal(a.weight, b.weight)
     np.testing.assert_array_equal(a.alpha_x, b.alpha_x)
@@ -43,7 +45,7 @@ def test_a_vanishing_medium_hands_over_to_yamaguchi_refined():
     faint = {"layers": [_coat(1.5, 0.2, 1.0, sigma_a=[0.3, 0.1, 0.05], sigma_s=[1e-7] * 3, g=0.5)],
              "base": smooth_gold}
     assert lc.Stack.from_dict(faint).has_scattering
-    np.testing.assert_allclose(lc.albedo(faint, WIS, "tm6_refined"), lc.albedo(clear, WIS, "yamaguchi_refined"),
+    np.testing.assert_allclose(lc.albedo(faint, WIS, TM6_REFINED), lc.albedo(clear, WIS, "yamaguchi_refined"),
                                atol=1e-6)
 
 
@@ -58,7 +60,7 @@ def test_the_primary_lobes_are_yamaguchi_refineds_with_the_media_as_extinction()
         layer["sigma_a"] = [a + s for a, s in zip(layer.get("sigma_a", [0.0] * 3), layer["sigma_s"])]
         layer["sigma_s"] = [0.0] * 3
     primary = lc.lobes(Stack.from_dict(d), WIS, "yamaguchi_refined")
-    got = lc.lobes(st, WIS, "tm6_refined")
+    got = lc.lobes(st, WIS, TM6_REFINED)
     k = len(primary.kinds)
     assert got.kinds[:k] == primary.kinds and len(got.kinds) > k
     glossy = [j for j in range(k) if primary.kinds[j] != "diffuse"]
@@ -87,9 +89,9 @@ def test_a_lossless_stack_returns_at_most_what_came_in(base, dtype):
         if b["type"] != "diffuse":
             b["roughness"] = brough
         st = {"layers": [_coat(ior, rough, d, sigma_s=[ss] * 3, g=g)], "base": b}
-        total = lc.albedo(st, WIS, "tm6_refined", dtype=dtype)
+        total = lc.albedo(st, WIS, TM6_REFINED, dtype=dtype)
         if b["type"] == "dielectric":
-            total = total + lc.albedo(st, WIS, "tm6_refined", side="transmitted", dtype=dtype)
+            total = total + lc.albedo(st, WIS, TM6_REFINED, side="transmitted", dtype=dtype)
         assert np.isfinite(total).all()
         worst = max(worst, float(total.max()))
     assert worst <= 1.0 + (1e-6 if dtype == np.float32 else 1e-12), worst
@@ -110,5 +112,5 @@ def test_a_float32_stack_that_once_returned_more_than_it_received():
                    [-0.95364427132682, -0.10222865589139495, 0.28304046650642967],
                    [0.6773563124876212, -0.7356550998485378, 1e-07],
                    [-0.2880521208987666, -0.9576147323666822, 1e-07]])
-    total = lc.lobes(d, wi, "tm6_refined", dtype=np.float32).weight.sum(1)
+    total = lc.lobes(d, wi, TM6_REFINED, dtype=np.float32).weight.sum(1)
     assert (total <= 1.0 + 1e-6).all(), total

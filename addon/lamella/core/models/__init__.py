@@ -40,11 +40,12 @@ def unregister(model_or_name) -> None:
     MODELS.unregister(model_or_name)
 
 
-# tm6 with the light no medium has scattered carried by yamaguchi_refined (``transfer_matrix``)
-TM6_REFINED = TransferMatrix("tm6_refined", six_flux=True, primary=YAMAGUCHI_REFINED)
 for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_REFINED, TransferMatrix("tm2", six_flux=False),
-               TransferMatrix("tm6", six_flux=True), TM6_REFINED, ENDF()):
+               TransferMatrix("tm6", six_flux=True), ENDF()):
     register(_model)
+# A study variant, not registered (``auto`` would have to run it: ``choose_auto``): tm6 with the light
+# no medium has scattered carried by yamaguchi_refined (``transfer_matrix``, ``primary``)
+TM6_REFINED = TransferMatrix("tm6_refined", six_flux=True, primary=YAMAGUCHI_REFINED)
 VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
 
 
@@ -59,11 +60,11 @@ def choose_auto(stack) -> str:
                                                           scattering); Belcour 2018's medium
                                                           operator in the adding family keeps
                                                           single forward scattering only
-                                                          (tm6_refined measures better, but the
-                                                          node group's tables over textured
-                                                          parameters do not yet follow its
-                                                          narrower unscattered lobe: see
-                                                          transfer_matrix)
+                                                          (the study variant TM6_REFINED measures
+                                                          better, but the node group's tables
+                                                          over textured parameters do not yet
+                                                          follow its narrower unscattered lobe:
+                                                          see transfer_matrix)
     one isotropic coat over an            endf            the refractions' Jacobians through
     isotropic dielectric base (coated                     both interfaces: the transmitted side
     glass, a glass plate)                                 far closer than the adding family's,
