@@ -347,11 +347,14 @@ class _Exit:
 
 
 # ---------------------------------------------------------------- the walk
-def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray, lam: np.ndarray | None = None):
+def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray, lam: np.ndarray | None = None,
+          paths: dict | None = None):
     """Trace packets entering along -wi (one row per packet). Returns (reflected, transmitted,
     nee) per packet, RGB: escaped energy up / down and the NEE estimate toward each pair's wo.
     ``lam``: each packet's wavelength (nm) for a stack with thin films, which reflect at it (channel
-    c of the result is then the walk with channel c's properties and the films at ``lam``)."""
+    c of the result is then the walk with channel c's properties and the films at ``lam``).
+    ``paths``: a dict that receives, per packet, the direction it left the top by (``"up"``, zero
+    for a packet that did not) and how many times it met the base (``"base_meetings"``)."""
     K = wi.shape[0]
     N = L.N
     pos = np.zeros(K, dtype=np.int64)  # medium index (0 = outside above; N+1 = substrate)
@@ -366,6 +369,8 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
     trans = np.zeros((K, 3))
     nee = np.zeros((K, 3))
     scattered = np.zeros(K, bool)  # had a non-delta event (what eval_brdf_cos can see)
+    up_dir = np.zeros((K, 3))
+    base_meetings = np.zeros(K, dtype=np.int64)
     for depth in range(MAX_EVENTS):
         if not alive.any():
             break
@@ -376,6 +381,8 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
                 continue
             if not L.smooth[j] or (j == N and L.base.type == "diffuse"):
                 scattered[sel] = True
+            if j == N:
+                base_meetings[sel] += 1
             _interface(L, j, sel, w, beta, pos, z, alive, pending, exit_, pair, nee, rng,
                        None if lam is None else lam[sel])
         # --- propagation inside media
@@ -386,6 +393,7 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
         # --- escapes
         up_out = alive & ~pending & (pos == 0)
         refl[up_out] += beta[up_out]
+        up_dir[up_out] = w[up_out]
         alive &= ~up_out
         down_out = alive & ~pending & (pos == N + 1)
         trans[down_out] += beta[down_out]
@@ -398,6 +406,8 @@ def _walk(L: _Layers, wi: np.ndarray, rng, exit_: _Exit | None, pair: np.ndarray
                 survive = rng.random(idx.size) < q
                 beta[idx] /= q[:, None]
                 alive[idx[~survive]] = False
+    if paths is not None:
+        paths.update(up=up_dir, base_meetings=base_meetings)
     return refl, trans, nee, scattered
 
 
@@ -743,3 +753,30 @@ def albedo(stack, wi, spp: int, seed: int = 0, side: str = "reflected", exclude_
         means.append(m)
         errs.append(np.sqrt(np.maximum(tot2 / spp - m * m, 0.0) / max(spp - 1, 1)))
     return np.array(means), np.array(errs)
+
+
+def reflected_paths(stack, wi, spp: int, seed: int = 0, interfaces: str = "single"):
+    """The light ``spp`` packets arriving along ``wi`` (3,) carry out of the top, packet by packet:
+    (direction (M, 3), energy (M, 3), base meetings (M,)) for the M packets that left upward, the
+    energy each carries (its share of the directional albedo is energy / spp) and how many times
+    it met the base on its way: 0 for light the coats alone sent back. A stack with thin films or
+    partly covering coats has no such split here."""
+    parts = covered_parts(stack)
+    if len(parts) > 1 or parts[0][0] != 1.0:
+        raise ValueError("reflected_paths: a stack with partly covering coats is a mix of walks, not one")
+    L = _Layers(parts[0][1], interfaces)
+    if L.filmed:
+        raise ValueError("reflected_paths: a stack with a thin film is walked per wavelength, not split here")
+    rng = np.random.default_rng(seed)
+    out = ([], [], [])
+    left = spp
+    while left > 0:
+        k = min(left, CHUNK)
+        paths: dict = {}
+        r, _, _, _ = _walk(L, np.broadcast_to(_dirs(wi)[0], (k, 3)).copy(), rng, None, np.zeros(k, np.int64),
+                           paths=paths)
+        up = r.max(1) > 0.0
+        for dst, v in zip(out, (paths["up"][up], r[up], paths["base_meetings"][up])):
+            dst.append(v)
+        left -= k
+    return tuple(np.concatenate(v) for v in out)
