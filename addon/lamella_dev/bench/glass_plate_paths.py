@@ -20,6 +20,10 @@ buys*: the relative L1 against the energy-conserving reference (as `bench/accura
 model's lobes, then of the same with the base lobe given the walk's spread (a GGX lobe with axes
 along and across the plane of incidence, the roughnesses of *all that met the base* in the
 energy-conserving walk), at the model's energy and at the walk's.
+
+*Where the light leaves* places each path's exit directions: light that met the lower face three
+times or more leaves at the same angles from the normal whatever the incidence, spread in azimuth
+about the incidence plane (a ring, not a lobe about the mirror direction).
 """
 from __future__ import annotations
 
@@ -87,6 +91,22 @@ def spread_buys(stack, deg: float, model: list[dict], base_light: dict) -> dict:
             "walk_spread_energy": l1([top_lobe, (base_light["energy"], *walk)])}
 
 
+def exits(wi: np.ndarray, up: np.ndarray, energy: np.ndarray) -> dict:
+    """Energy-weighted quantiles of the exit direction's angle from the normal (``theta``: 25, 50
+    and 75 %) and of its azimuth from the mirror direction's (``azimuth``, absolute: 50 and 90 %),
+    in degrees."""
+    theta = np.degrees(np.arccos(np.clip(up[:, 2], -1.0, 1.0)))
+    mirror = math.atan2(-wi[1], -wi[0]) if np.hypot(wi[0], wi[1]) > 0.0 else 0.0
+    azimuth = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(up[:, 1], up[:, 0]) - mirror)))))
+
+    def quantiles(x, ps):
+        order = np.argsort(x)
+        c = np.cumsum(energy[order])
+        return [float(x[order][np.searchsorted(c, p * c[-1])]) for p in ps]
+
+    return {"theta": quantiles(theta, (0.25, 0.5, 0.75)), "azimuth": quantiles(azimuth, (0.5, 0.9))}
+
+
 def rows(spp: int = SPP, seed: int = 5, progress=print) -> list[dict]:
     stack = suite.load(CASE)
     out = []
@@ -105,6 +125,7 @@ def rows(spp: int = SPP, seed: int = 5, progress=print) -> list[dict]:
                 cls = {"meetings": label, "energy": float(e[sel].sum() / spp)}
                 if sel.sum() > 100:
                     cls.update(spread(wi, up[sel], e[sel]))
+                    cls["exits"] = exits(wi, up[sel], e[sel])
                 row["classes"].append(cls)
             sel = meetings >= 1
             row["base_light"] = {"energy": float(e[sel].sum() / spp), **spread(wi, up[sel], e[sel])}
@@ -138,6 +159,17 @@ def _markdown(data: list[dict], spp: int) -> str:
                      + " | ".join(model[:2]) + " | "
                      + (" / ".join(f"{r['buys'][k]:.3f}" for k in ("model", "walk_spread", "walk_spread_energy"))
                         if "buys" in r else "") + " |")
+    lines += ["", "## Where the light leaves (energy-conserving walk)", "",
+              "Per path, the exit direction's angle from the normal (quartiles, degrees) and its azimuth "
+              "from the mirror direction's (median and 90th percentile of its absolute value); at 0° the "
+              "azimuth is the angle from the x axis.", "",
+              "| θi | 0 meetings: θo / azimuth | 1 | 2 | 3 or more |", "|---:|---|---|---|---|"]
+    for r in data:
+        if r["interfaces"] != "multiple":
+            continue
+        lines.append(f"| {r['wi']:g}° | " + " | ".join(
+            "{:.0f}-{:.0f}-{:.0f} / {:.0f}, {:.0f}".format(*c["exits"]["theta"], *c["exits"]["azimuth"])
+            if "exits" in c else "" for c in r["classes"]) + " |")
     lines.append("")
     return "\n".join(lines)
 
