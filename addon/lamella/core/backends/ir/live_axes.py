@@ -12,12 +12,16 @@ traced.
 An axis spans the field's slider range (``Field.soft``), widened to hold the stack's own value;
 a texture value outside it is clamped to it. The nodes are evenly spaced in a coordinate that
 crowds them where the model moves fastest: for a range the field's hard limits close at both
-ends (a roughness alpha in [0, 1], a diffuse albedo), (2 / pi) asin(sqrt(u)) of the position u in
-the range, quadratic toward both ends (near 0 it is Blender's r = sqrt(alpha); near alpha = 1
-the spreads a coat adds to the layers below grow without bound); for other fields that cannot
-be negative (a thickness, an absorption, an index) sqrt(u), crowding toward the low end where
-exponentials and Fresnel terms move fastest; linear otherwise. Angles get no axis (a linked
-rotation stays traced).
+ends, (2 / pi) asin(sqrt(u)) of the position u in the range, quadratic toward both ends (a
+diffuse albedo), and for a roughness the same of r = sqrt(u) (Blender's r = sqrt(alpha)):
+quadratic in r toward both ends. Near alpha = 0 the lobes narrow as alpha and a coat's smooth and
+rough Fresnel hand over (``fgd.ALPHA_BLEND``), and nodes evenly spaced in r (what the sine
+warp of alpha is near 0) interpolated glossy coats across several lobe widths (the sweep over r
+in `bench/linked_tables.md`); near alpha = 1 the spreads a coat adds to the layers below grow
+without bound. For other fields that cannot be negative (a thickness, an absorption, an index) sqrt(u),
+crowding toward the low end where exponentials and Fresnel terms move fastest; linear otherwise.
+Angles get no axis (a linked rotation stays traced), and neither do the angles the model computes
+(``staging``: they jump where they wrap).
 """
 from __future__ import annotations
 
@@ -40,7 +44,8 @@ class LiveAxis:
     """The table axis of parameter ``param`` (model units: GGX alpha, not r): ``n`` nodes over
     [``lo``, ``hi``], evenly spaced in the coordinate ``warp`` of u = (v - lo) / (hi - lo):
     "sqrt": sqrt(u); "sine": (2 / pi) asin(sqrt(u)), which crowds the nodes toward both ends
-    (quadratically, like sqrt at the low end); "linear": u."""
+    (quadratically, like sqrt at the low end); "sine_r": "sine" of sqrt(u), for a roughness
+    (quadratic in r = sqrt(alpha) toward both ends); "linear": u."""
 
     param: str
     lo: float
@@ -51,7 +56,8 @@ class LiveAxis:
     def values(self) -> np.ndarray:
         """The parameter's value at each node (float64, (n,))."""
         x = np.linspace(0.0, 1.0, self.n)
-        u = {"sqrt": x * x, "sine": np.sin(0.5 * np.pi * x) ** 2, "linear": x}[self.warp]
+        s2 = np.sin(0.5 * np.pi * x) ** 2
+        u = {"sqrt": x * x, "sine": s2, "sine_r": s2 * s2, "linear": x}[self.warp]
         return self.lo + (self.hi - self.lo) * u
 
     def coord(self, ops, v):
@@ -60,14 +66,17 @@ class LiveAxis:
         u = ops.clamp((v - self.lo) * (1.0 / (self.hi - self.lo)), 0.0, 1.0)
         if self.warp == "sine":
             return ops.atan2(ops.sqrt(u), ops.sqrt(1.0 - u)) * (2.0 / math.pi)
+        if self.warp == "sine_r":  # the sine warp of r = sqrt(u)
+            r = ops.sqrt(u)
+            return ops.atan2(ops.sqrt(r), ops.sqrt(1.0 - r)) * (2.0 / math.pi)
         return ops.sqrt(u) if self.warp == "sqrt" else u
 
 
 def axis_nodes(axis: LiveAxis, dims: int) -> int:
     """The nodes of ``axis`` in a table over ``dims`` parameters: ``N_AXIS``, but
-    ``N_AXIS_WIDE`` along an index or a colour (eta, k: the model is smooth in them) in a table
-    over three (its size is the product)."""
-    return N_AXIS_WIDE if dims >= 3 and axis.warp != "sine" else N_AXIS
+    ``N_AXIS_WIDE`` along an index or a colour (eta, k: the model is smooth in them; not a
+    roughness or an albedo, the "sine" warps) in a table over three (its size is the product)."""
+    return N_AXIS_WIDE if dims >= 3 and axis.warp not in ("sine", "sine_r") else N_AXIS
 
 
 def field_of(stack: Stack, pid: ParamId):
@@ -88,7 +97,7 @@ def axis_of(stack: Stack, pid: ParamId, value: float, n: int | None = None) -> L
     if not hi > lo or not math.isfinite(hi - lo):
         return None
     if (lo, hi) == (f.lo, f.hi):  # a range the model's limits close at both ends (a roughness, an albedo)
-        warp = "sine"
+        warp = "sine_r" if pid.is_roughness else "sine"
     else:
         warp = "sqrt" if f.lo >= 0.0 else "linear"
     return LiveAxis(pid.name, float(lo), float(hi), n or N_AXIS, warp)

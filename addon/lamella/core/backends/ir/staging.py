@@ -481,15 +481,33 @@ def _traced_part(t: Tracer, live, axes: dict, max_axes: int) -> frozenset[int]:
     parameters' own conversions, such as alpha from r: a table would only approximate them)."""
     reach = {p: t.reached_by([p]) for p in live}
     view = _reached_by_view(t)
+    angles = _reached_by_angles(t)
     out = set()
     for e in t.nodes:
         i = id(e)
         if not any(i in r for r in reach.values()):
             continue
         deps = [p for p in live if i in reach[p]]
-        if e.op == "param" or i not in view or len(deps) > max_axes or any(p not in axes for p in deps):
+        if (e.op == "param" or i not in view or i in angles or len(deps) > max_axes
+                or any(p not in axes for p in deps)):
             out.add(i)
     return frozenset(out)
+
+
+def _reached_by_angles(t: Tracer) -> frozenset[int]:
+    """The ids of the angles the model computes (``atan2``) and of every node they reach. An
+    angle jumps where it wraps, and the axes of a lobe's covariance turn by a right angle where its
+    two variances cross (``variance.CovarianceVariance.to_lobe``: the lobe itself is continuous
+    there); a table over a linked roughness would interpolate across the jump, so these stay
+    traced from the angle's smooth arguments."""
+    def build():
+        out: set[int] = set()
+        for e in t.nodes:
+            if e.op == "atan2" or any(a.__class__ is Expr and id(a) in out for a in e.args):
+                out.add(id(e))
+        return frozenset(out)
+
+    return t.memo(("reached_by_angles",), build)
 
 
 def _reached_by_view(t: Tracer) -> frozenset[int]:
