@@ -39,7 +39,7 @@ PLANE_TITLES = {"in": "incidence plane", "perp": "perpendicular plane", "trans":
 PLANE_AXES = {"in": "θo (deg, mirror at +θi)", "perp": "angle from mirror (deg)",
               "trans": "θo below (deg, straight through at +θi)"}
 COLORS = {"belcour2018": "tab:blue", "weier2020": "tab:orange", "yamaguchi2019": "tab:green", "tm2": "tab:purple",
-          "tm6": "tab:red", "endf": "tab:brown"}
+          "tm6": "tab:red", "tm6_refined": "tab:pink", "endf": "tab:brown"}
 
 
 REFERENCE_STYLES = {"multiple": dict(color="k", lw=1.0, ls="-"), "single": dict(color="0.45", lw=0.9, ls=":")}

@@ -48,7 +48,7 @@ def test_layer_add_remove_move_duplicate(addon, mat):
     s.active_index = 1
     addon.ops.lamella.layer_add(material=mat.name, template="dust")
     assert len(s.coats) == 4 and s.active_index == 1 and s.coats[1].name == "Dust"
-    assert s.status == "OK" and s.picked_model == "tm6"
+    assert s.status == "OK" and s.picked_model == "tm6_refined"
     addon.ops.lamella.layer_move(material=mat.name, direction="UP")
     assert s.active_index == 0 and s.coats[0].name == "Dust"
     addon.ops.lamella.layer_duplicate(material=mat.name)

@@ -11,21 +11,21 @@ from lamella_dev.cli import main
 def test_lobes_prints_every_model(capsys):
     assert main(["lobes", "rotated_60", "--wi", "30"]) == 0
     out = capsys.readouterr().out
-    for m in ("belcour2018", "weier2020", "yamaguchi2019", "yamaguchi_refined", "tm2", "tm6"):
+    for m in ("belcour2018", "weier2020", "yamaguchi2019", "yamaguchi_refined", "tm2", "tm6", "tm6_refined"):
         assert m in out
     assert "auto (picked yamaguchi_refined for this stack)" in out
-    assert out.count("reflection") == 14  # two lobes per model, seven models with auto
+    assert out.count("reflection") == 16  # two lobes per model, eight models with auto
 
 
 def test_lobes_reports_unsupported_stacks(tmp_path, capsys):
-    """A scattering coat over a diffuse base: the thin-layer model says why it cannot, auto picks tm6."""
+    """A scattering coat over a diffuse base: the thin-layer model says why it cannot, auto picks tm6_refined."""
     p = tmp_path / "fog.json"
     p.write_text(json.dumps({"layers": [{"ior": 1.0, "thickness": 1.0, "sigma_s": [0.5] * 3}],
                              "base": {"type": "diffuse"}}))
     assert main(["lobes", str(p), "--wi", "0"]) == 0
     out = capsys.readouterr().out
     assert "unsupported: endf: coat 0 scatters" in out
-    assert "auto (picked tm6 for this stack)" in out
+    assert "auto (picked tm6_refined for this stack)" in out
 
 
 def test_bad_stack_names_layer_and_field(tmp_path):

@@ -193,8 +193,8 @@ def test_auto_picks_by_structure():
     from lamella.core.models import choose_auto
 
     assert choose_auto(lc.Stack.from_dict(stack(coat(1.5, 0.1)))) == "yamaguchi_refined"
-    assert choose_auto(lc.Stack.from_dict(stack(medium(1.0, 0.5)))) == "tm6"
-    assert lc.lobes(stack(medium(1.0, 0.5)), directions([0.0])).model == "tm6"
+    assert choose_auto(lc.Stack.from_dict(stack(medium(1.0, 0.5)))) == "tm6_refined"
+    assert lc.lobes(stack(medium(1.0, 0.5)), directions([0.0])).model == "tm6_refined"
     glass = {"type": "dielectric", "ior": 1.5, "roughness": 0.1}
     assert choose_auto(lc.Stack.from_dict({"layers": [coat(1.5, 0.1)], "base": glass})) == "endf"
     assert choose_auto(lc.Stack.from_dict({"layers": [coat(1.5, 0.1)] * 2, "base": glass})) == "yamaguchi_refined"

@@ -20,7 +20,7 @@ def test_random_stacks_quick_run_finds_no_failure():
     # the slack covers the transfer-matrix models' amplified rounding; the others hold far tighter
     # (a million stacks: at most 8e-6), and a regression there must not hide under it
     excess = {m: s["float32"][2] for m, s in r["models"].items() if s["float32"][0]}
-    tight = {m: x for m, x in excess.items() if m not in ("tm2", "tm6")}
+    tight = {m: x for m, x in excess.items() if m not in ("tm2", "tm6", "tm6_refined")}
     assert all(x <= 5e-5 for x in tight.values()), excess
 
 

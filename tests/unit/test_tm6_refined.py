@@ -1,6 +1,6 @@
-"""tm6_refined (a study variant, ``models.TM6_REFINED``): the light no medium has scattered through
-the interfaces by yamaguchi_refined, the scattered light by the six-flux transfer matrices
-(``transfer_matrix``, ``primary``)."""
+"""tm6_refined (``models.TM6_REFINED``, what ``auto`` runs on scattering stacks): the light no
+medium has scattered through the interfaces by yamaguchi_refined, the scattered light by the
+six-flux transfer matrices (``transfer_matrix``, ``primary``)."""
 import itertools
 
 import numpy as np

@@ -390,9 +390,9 @@ def format_markdown(rows: list[dict], models, rows_multiple: list[dict] | None =
         "",
         "| stack | auto runs | why |",
         "|---|---|---|",
-        "| any coat scatters (sigma_s > 0) | tm6 | forward and back-scattered fluxes (the adding family's Belcour "
-        "2018 medium operator keeps single forward scattering only); the study variant `models.TM6_REFINED` "
-        "measures better but is not yet `auto` (`docs/models.md`) |",
+        "| any coat scatters (sigma_s > 0) | tm6_refined | forward and back-scattered fluxes by tm6 (the adding "
+        "family's Belcour 2018 medium operator keeps single forward scattering only), the light no medium "
+        "scattered by yamaguchi_refined (`docs/models.md`) |",
         "| one isotropic coat over an isotropic dielectric base | endf | exact Jacobians of both refractions: "
         + _glass_plate_reading(rows_multiple or rows) + " |",
         "| interfaces and absorbing coats, any base | yamaguchi_refined | the 2x2 covariance follows rotated "

@@ -161,7 +161,8 @@ def _markdown(data: list[dict]) -> str:
                f"at r and the other linked values the stack's own, at {len(rs)} values of r evenly spaced in log r "
                f"from {rs[0]:g} to {rs[-1]:g}: where the draws above (r from 0.1) do not go, and where a coat's lobe "
                "is narrow. The largest in each range of r, and the mean over all. A roughness axis has its nodes "
-               "evenly spaced in (2 / pi) asin(sqrt(r)) (`live_axes`).", "",
+               "evenly spaced in (2 / pi) asin(sqrt(r)) (`live_axes`), and a live lobe's own roughness is read "
+               "from the tables as its fourth root (`staging`).", "",
                "| stack | " + " | ".join(f"r {lo:g}-{hi:g}: largest" for lo, hi in BANDS) + " | mean |",
                "|---|" + "---:|" * (len(BANDS) + 1)]
         for r in data:

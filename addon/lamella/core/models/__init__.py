@@ -40,12 +40,11 @@ def unregister(model_or_name) -> None:
     MODELS.unregister(model_or_name)
 
 
-for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_REFINED, TransferMatrix("tm2", six_flux=False),
-               TransferMatrix("tm6", six_flux=True), ENDF()):
-    register(_model)
-# A study variant, not registered (``auto`` would have to run it: ``choose_auto``): tm6 with the light
-# no medium has scattered carried by yamaguchi_refined (``transfer_matrix``, ``primary``)
+# tm6 with the light no medium has scattered carried by yamaguchi_refined (``transfer_matrix``, ``primary``)
 TM6_REFINED = TransferMatrix("tm6_refined", six_flux=True, primary=YAMAGUCHI_REFINED)
+for _model in (BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_REFINED, TransferMatrix("tm2", six_flux=False),
+               TransferMatrix("tm6", six_flux=True), TM6_REFINED, ENDF()):
+    register(_model)
 VARIANTS = {k: v for k, v in MODELS.items() if isinstance(v, Variant)}  # the adding-doubling family
 
 
@@ -56,15 +55,12 @@ def choose_auto(stack) -> str:
     ====================================  ==============  =====================================
     stack                                 model           why
     ====================================  ==============  =====================================
-    any coat scatters (sigma_s > 0)       tm6             secondary fluxes (forward and back
-                                                          scattering); Belcour 2018's medium
-                                                          operator in the adding family keeps
-                                                          single forward scattering only
-                                                          (the study variant TM6_REFINED measures
-                                                          better, but the node group's tables
-                                                          over textured parameters do not yet
-                                                          follow its narrower unscattered lobe:
-                                                          see transfer_matrix)
+    any coat scatters (sigma_s > 0)       tm6_refined     secondary fluxes (forward and back
+                                                          scattering) by tm6; Belcour 2018's
+                                                          medium operator in the adding family
+                                                          keeps single forward scattering only;
+                                                          the unscattered light through the
+                                                          interfaces by yamaguchi_refined
     one isotropic coat over an            endf            the refractions' Jacobians through
     isotropic dielectric base (coated                     both interfaces: the transmitted side
     glass, a glass plate)                                 far closer than the adding family's,
@@ -79,7 +75,7 @@ def choose_auto(stack) -> str:
     ====================================  ==============  =====================================
     """
     if stack.has_scattering:
-        return "tm6"
+        return TM6_REFINED.name
     if (stack.base.kind.transmits and len(stack.coats) == 1
             and all(layer.roughness[0] == layer.roughness[1] for layer in (stack.coats[0], stack.base))):
         return "endf"

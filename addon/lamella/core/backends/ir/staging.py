@@ -410,6 +410,11 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
         if name in t.inputs:
             env[id(t.inputs[name])] = x
     t2.set_scope("live")
+    # a live lobe's roughness read from a table over a linked roughness: tabulated as its fourth
+    # root, which the roughness axis spaces evenly near 0 (``live_axes``: alpha = sin^4 there), so
+    # a glossy coat's own lobe is interpolated in the coordinate it is linear in
+    roughness_args = {id(x) for c in moving if c.kind.rough for name, x in c.args.items()
+                      if name in ROOTED and isinstance(x, Expr)}
     axis_tables = []
     coord_of: dict[str, object] = {}
     tables = {params: [replace(axes[p], n=axis_nodes(axes[p], len(params))) for p in params] for params in on_axes}
@@ -419,10 +424,17 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
             if p not in coord_of:
                 coord_of[p] = axes[p].coord(t2, t2.param(t.ids[p], t.defaults[p]))
         k = len(axis_tables)
-        axis_tables.append(AxisTable(tuple(tables[params]), data[params]))
+        rooted = np.array([id(e) in roughness_args for e in exprs], dtype=bool)
+        values = data[params].copy()
+        values[..., rooted] = np.sqrt(np.sqrt(np.maximum(values[..., rooted], 0.0)))
+        axis_tables.append(AxisTable(tuple(tables[params]), values))
         t2.set_scope("table")
         for col, e in enumerate(exprs):
-            env[id(e)] = t2.node("atab", str(k), str(col), cc, *(coord_of[p] for p in params))
+            read = t2.node("atab", str(k), str(col), cc, *(coord_of[p] for p in params))
+            if rooted[col]:  # a lobe's roughness, read as its fourth root (``ROOTED``)
+                read = read * read
+                read = read * read
+            env[id(e)] = read
         t2.set_scope("live")
 
     def rebuild(x):
@@ -464,6 +476,9 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
                 tuple(sorted(t.params)), defaults, tuple(axis_tables), live_axes if axes else 0,
                 tuple(sorted(traced_params)), dict(t.ids), normals, eevee)
     return st
+
+
+ROOTED = ("ax", "ay", "alpha")  # closure arguments that are a roughness (GGX alpha)
 
 
 def _covered(c: Closure, cover) -> Closure:
