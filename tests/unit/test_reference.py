@@ -206,16 +206,6 @@ def test_interfaces_change_nothing_on_smooth_stacks():
         R.albedo(d, wi, spp=10, interfaces="double")
 
 
-def _fresnel(cos_i, eta):
-    """Unpolarised Fresnel reflectance from index 1 onto index eta (1 past total internal reflection)."""
-    s2 = (1.0 - cos_i ** 2) / eta ** 2
-    if s2 >= 1.0:
-        return 1.0
-    ct = np.sqrt(1.0 - s2)
-    rs, rp = (cos_i - eta * ct) / (cos_i + eta * ct), (eta * cos_i - ct) / (eta * cos_i + ct)
-    return 0.5 * (rs * rs + rp * rp)
-
-
 def test_reflected_paths_split_a_smooth_plate_into_its_series():
     """A smooth glass plate at 30 degrees: the light that never met the lower face is the top's
     Fresnel reflectance, the light that met it k times T^2 R_b^k R_t^(k-1) (R_t the top's from
@@ -226,9 +216,9 @@ def test_reflected_paths_split_a_smooth_plate_into_its_series():
     spp = 1 << 17
     up, energy, meetings = R.reflected_paths(plate, wi, spp, seed=3)
     assert np.allclose(up, [-wi[0], 0.0, wi[2]], atol=1e-9)
-    r_top = _fresnel(wi[2], 1.5)
+    r_top = float(fresnel_dielectric(OPS, wi[2], 1.5))
     c_in = np.sqrt(1.0 - (1.0 - wi[2] ** 2) / 1.5 ** 2)
-    r_in = _fresnel(c_in, 1.0 / 1.5)  # the lower face and the top, from inside the glass alike
+    r_in = float(fresnel_dielectric(OPS, c_in, 1.0 / 1.5))  # the lower face and the top, from inside alike
     t = 1.0 - r_top
     want = [r_top] + [t * t * r_in ** k * r_in ** (k - 1) for k in (1, 2)]
     got = [energy[meetings == k, 0].sum() / spp for k in range(3)]

@@ -48,6 +48,13 @@ CLASSES = ((0, 0, "0"), (1, 1, "1"), (2, 2, "2"), (3, None, "3+"))  # base meeti
 SPP = 1 << 19
 
 
+def quantile(x: np.ndarray, energy: np.ndarray, p: float) -> float:
+    """The energy-weighted ``p`` quantile of ``x``."""
+    order = np.argsort(x)
+    c = np.cumsum(energy[order])
+    return float(x[order][np.searchsorted(c, p * c[-1])])
+
+
 def spread(wi: np.ndarray, up: np.ndarray, energy: np.ndarray) -> dict:
     """GGX-equivalent roughness along and across the plane of incidence (x, z) of light leaving
     along ``up`` (M, 3) with ``energy`` (M,), and the signed median slope along it."""
@@ -57,13 +64,9 @@ def spread(wi: np.ndarray, up: np.ndarray, energy: np.ndarray) -> dict:
     if wi[0] > 0.0:
         along = -along  # positive toward grazing on the mirror side
 
-    def median(x):
-        order = np.argsort(x)
-        c = np.cumsum(energy[order])
-        return float(x[order][np.searchsorted(c, 0.5 * c[-1])])
-
-    return {"alpha_along": math.sqrt(3.0) * median(np.abs(along)),
-            "alpha_across": math.sqrt(3.0) * median(np.abs(across)), "centre": median(along)}
+    return {"alpha_along": math.sqrt(3.0) * quantile(np.abs(along), energy, 0.5),
+            "alpha_across": math.sqrt(3.0) * quantile(np.abs(across), energy, 0.5),
+            "centre": quantile(along, energy, 0.5)}
 
 
 def spread_buys(stack, deg: float, model: list[dict], base_light: dict) -> dict:
@@ -98,13 +101,8 @@ def exits(wi: np.ndarray, up: np.ndarray, energy: np.ndarray) -> dict:
     theta = np.degrees(np.arccos(np.clip(up[:, 2], -1.0, 1.0)))
     mirror = math.atan2(-wi[1], -wi[0]) if np.hypot(wi[0], wi[1]) > 0.0 else 0.0
     azimuth = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(up[:, 1], up[:, 0]) - mirror)))))
-
-    def quantiles(x, ps):
-        order = np.argsort(x)
-        c = np.cumsum(energy[order])
-        return [float(x[order][np.searchsorted(c, p * c[-1])]) for p in ps]
-
-    return {"theta": quantiles(theta, (0.25, 0.5, 0.75)), "azimuth": quantiles(azimuth, (0.5, 0.9))}
+    return {"theta": [quantile(theta, energy, p) for p in (0.25, 0.5, 0.75)],
+            "azimuth": [quantile(azimuth, energy, p) for p in (0.5, 0.9)]}
 
 
 def rows(spp: int = SPP, seed: int = 5, progress=print) -> list[dict]:

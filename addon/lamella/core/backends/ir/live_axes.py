@@ -19,8 +19,9 @@ rough Fresnel hand over (``fgd.ALPHA_BLEND``), and nodes evenly spaced in r (wha
 warp of alpha is near 0) interpolated glossy coats across several lobe widths (the sweep over r
 in `bench/linked_tables.md`; ``staging`` reads a lobe's own roughness from the tables as its
 fourth root, the coordinate this axis is linear in near 0); near alpha = 1 the spreads a coat
-adds to the layers below grow without bound. For other fields that cannot be negative (a thickness, an absorption, an index) sqrt(u),
-crowding toward the low end where exponentials and Fresnel terms move fastest; linear otherwise.
+adds to the layers below grow without bound. For other fields that cannot be negative (a
+thickness, an absorption, an index) sqrt(u), crowding toward the low end where exponentials and
+Fresnel terms move fastest; linear otherwise.
 Angles get no axis (a linked rotation stays traced), and neither do the angles the model computes
 (``staging``: they jump where they wrap).
 """
