@@ -123,6 +123,56 @@ def test_transmitted_spread_matches_sampled_paths(degrees):
     assert abs(model / sampled - 1.0) < 0.03, (model, sampled)
 
 
+@pytest.mark.parametrize("degrees", [0.0, 30.0, 45.0, 60.0])
+def test_one_bounce_paths_are_round_in_half_vector_space(degrees):
+    """The one-bounce path alone (Eq. 26's paths, traced exactly) spreads its half vectors alike
+    along and across the plane of incidence, as Eq. 19's round NDF says, while its exit directions
+    spread 1 / mu times more along the plane than across it: what widens the model's lobe across
+    the plane is the light that met the base more than once (``endf`` module docstring)."""
+    eta, n, a = 1.5, 400_000, 0.05
+    ops = NumpyOps()
+    rng = np.random.default_rng(11)
+    th = math.radians(degrees)
+    o = np.array([math.sin(th), 0.0, math.cos(th)])
+    kappa = 1.0 / E.alpha_to_v(ops, a)
+    m1, m2, m3 = (_sample_vmf(rng, kappa, n) for _ in range(3))
+    out = _refract(_reflect(_refract(np.broadcast_to(-o, (n, 3)), m1, eta), m2), -m3, 1.0 / eta)
+    out = out[out[:, 2] > 0]
+    h = out + o
+    ratio = np.std(h[:, 1] / h[:, 2]) / np.std(h[:, 0] / h[:, 2])
+    assert 0.9 < ratio < 1.15, ratio
+    mean = out.mean(0) / np.linalg.norm(out.mean(0))
+    x = np.cross([0.0, 1.0, 0.0], mean)
+    x /= np.linalg.norm(x)
+    exit_ratio = np.std(out @ x) / np.std(out @ np.cross(mean, x))
+    assert exit_ratio == pytest.approx(1.0 / math.cos(th), rel=0.1)
+
+
+@pytest.mark.parametrize("degrees", [0.0, 30.0, 60.0, 75.0])
+def test_the_subsurface_lobe_has_round_exit_directions(degrees):
+    """The printed lobe: round at normal incidence, and for a narrow lobe across the plane 1 / mu
+    times its roughness along it, with Eq. 19's solid angle (their geometric mean); its axes turn
+    with the view's azimuth."""
+    ops = NumpyOps()
+    mu = math.cos(math.radians(degrees))
+    v = E.alpha_to_v(ops, 0.002)
+    along, across = E.round_exit_alphas(ops, v, mu)
+    round_alpha = E.v_to_alpha(ops, v / (4.0 * mu))
+    assert across / along == pytest.approx(1.0 / mu, rel=0.01)
+    assert math.sqrt(along * across) == pytest.approx(round_alpha, rel=0.01)
+    s = _stack(0.05, 0.08, base="dielectric")
+    azimuth = 0.7
+    sin_t = math.sin(math.radians(degrees))
+    lb = lc.lobes(s, np.array([[sin_t * math.cos(azimuth), sin_t * math.sin(azimuth), mu]]), "endf")
+    assert lb.alpha_y[0, 1] >= lb.alpha_x[0, 1]
+    if degrees > 0.0:
+        assert lb.rotation[0, 1] == pytest.approx(azimuth)
+        # broad lobes narrow across toward grazing, where the horizon cuts them (ROUND_EXIT_SATURATION)
+        assert lb.alpha_y[0, 1] / lb.alpha_x[0, 1] > 1.0 + 0.5 * (min(1.0 / mu, 2.0) - 1.0)
+    else:
+        assert lb.alpha_y[0, 1] == pytest.approx(lb.alpha_x[0, 1])
+
+
 def _stack(a1=0.05, a2=0.08, base="conductor", **coat):
     b = {"type": "conductor", "roughness": a2} if base == "conductor" else {"type": "dielectric", "ior": 1.5,
                                                                             "roughness": a2}
