@@ -150,9 +150,9 @@ def test_one_bounce_paths_are_round_in_half_vector_space(degrees):
 
 @pytest.mark.parametrize("degrees", [0.0, 30.0, 60.0, 75.0])
 def test_the_subsurface_lobe_has_round_exit_directions(degrees):
-    """The printed lobe: round at normal incidence, and for a narrow lobe across the plane 1 / mu
-    times its roughness along it, with Eq. 19's solid angle (their geometric mean); its axes turn
-    with the view's azimuth."""
+    """The printed lobe over a dielectric base: round at normal incidence, and for a narrow lobe
+    across the plane 1 / mu times its roughness along it, with Eq. 19's solid angle (their
+    geometric mean); its axes turn with the view's azimuth."""
     ops = NumpyOps()
     mu = math.cos(math.radians(degrees))
     v = E.alpha_to_v(ops, 0.002)
@@ -171,6 +171,9 @@ def test_the_subsurface_lobe_has_round_exit_directions(degrees):
         assert lb.alpha_y[0, 1] / lb.alpha_x[0, 1] > 1.0 + 0.5 * (min(1.0 / mu, 2.0) - 1.0)
     else:
         assert lb.alpha_y[0, 1] == pytest.approx(lb.alpha_x[0, 1])
+    # over a conductor the subsurface lobe stays Eq. 19's round NDF
+    over_metal = lc.lobes(_stack(0.05, 0.08), np.array([[sin_t, 0.0, mu]]), "endf")
+    assert over_metal.alpha_y[0, 1] == over_metal.alpha_x[0, 1]
 
 
 def _stack(a1=0.05, a2=0.08, base="conductor", **coat):

@@ -15,7 +15,8 @@ so it reads a little under a lobe's alpha toward grazing and on rougher surfaces
 glass surface of alpha 0.3 at normal incidence, `tests/unit/test_reference.py`).
 
 The model's lobes (``auto``) are listed beside it: the top interface's lobe, and one lobe for all
-the light that met the base, round (one roughness) about the mirror direction. *What the spread
+the light that met the base, about the mirror direction (energy / roughness along / across the
+plane of incidence, where the two differ). *What the spread
 buys*: the relative L1 against the energy-conserving reference (as `bench/accuracy.md`) of the
 model's lobes, then of the same with the base lobe given the walk's spread (a GGX lobe with axes
 along and across the plane of incidence, the roughnesses of *all that met the base* in the
@@ -87,9 +88,9 @@ def spread_buys(stack, deg: float, model: list[dict], base_light: dict) -> dict:
         return relative_l1(np.repeat(f[:, None], 3, 1), f_ref, w)
 
     (top, base) = model
-    top_lobe = (top["energy"], top["alpha"], top["alpha"], 0.0)
+    top_lobe = (top["energy"], top["alpha_x"], top["alpha_y"], top["rotation"])
     walk = (base_light["alpha_along"], base_light["alpha_across"], azimuth)
-    return {"model": l1([top_lobe, (base["energy"], base["alpha"], base["alpha"], 0.0)]),
+    return {"model": l1([top_lobe, (base["energy"], base["alpha_x"], base["alpha_y"], base["rotation"])]),
             "walk_spread": l1([top_lobe, (base["energy"], *walk)]),
             "walk_spread_energy": l1([top_lobe, (base_light["energy"], *walk)])}
 
@@ -111,7 +112,8 @@ def rows(spp: int = SPP, seed: int = 5, progress=print) -> list[dict]:
     for deg in ANGLES:
         wi = suite.incident(deg)
         lobes = api.lobes(stack, wi)
-        model = [{"kind": k, "energy": float(np.mean(lobes.weight[0, j])), "alpha": float(lobes.alpha_x[0, j])}
+        model = [{"kind": k, "energy": float(np.mean(lobes.weight[0, j])), "alpha_x": float(lobes.alpha_x[0, j]),
+                  "alpha_y": float(lobes.alpha_y[0, j]), "rotation": float(lobes.rotation[0, j])}
                  for j, k in enumerate(lobes.kinds) if k == "reflection"]
         for interfaces in ("single", "multiple"):
             up, energy, meetings = reference.reflected_paths(stack, wi, spp, seed, interfaces)
@@ -151,7 +153,8 @@ def _markdown(data: list[dict], spp: int) -> str:
 
     for r in data:
         m = r["model"]
-        model = [f"{lobe['energy']:.4f} / {lobe['alpha']:.3f}" for lobe in m] + ["", ""]
+        model = [f"{lobe['energy']:.4f} / {lobe['alpha_x']:.3f}"
+                 + (f" / {lobe['alpha_y']:.3f}" if lobe["alpha_y"] != lobe["alpha_x"] else "") for lobe in m] + ["", ""]
         lines.append(f"| {r['wi']:g}° | {r['interfaces']} | {r['albedo']:.4f} ({r['model_albedo']:.4f}) | "
                      + " | ".join(cell(c) for c in r["classes"]) + f" | {cell(r['base_light'])} | "
                      + " | ".join(model[:2]) + " | "
