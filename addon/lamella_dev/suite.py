@@ -26,6 +26,12 @@ WI_DEGREES = (0.0, 30.0, 60.0, 75.0)
 # others' seeds as they were): 45 degrees came after the first four.
 REFERENCE_ANGLES = (*WI_DEGREES, 45.0)
 WI_AZIMUTH = 0.0  # incidence plane along the shading tangent
+# One suite case of each family (a rough coat over a metal, anisotropy, several coats, an absorbing
+# coat, thin and dense media, a diffuse base, glass, ENDF): the render tests that run per case run
+# these in `make test` and every case in `make test-long` (the shaders' structure follows the
+# family; the values are the numpy tests')
+ONE_PER_FAMILY = ("frosted_metal", "rotated_60", "three_coats", "tinted_varnish", "fog_g09_d1", "green_scatter_d6",
+                  "varnished_wood", "rough_glass_plate", "endf_thin_gold")
 
 
 def descriptions() -> dict[str, str]:

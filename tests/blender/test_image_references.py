@@ -23,6 +23,8 @@ pytest.importorskip("bpy")
 from lamella_dev.bench import images  # noqa: E402
 from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR, load_index  # noqa: E402
 
+from .cases import per_family  # noqa: E402
+
 RECORDED = json.loads((BENCH_DIR / "images.json").read_text())
 MARGIN = {"rmse": (0.01, 1e-4), "rmse_8px": (0.01, 1e-4), "delta_e00": (0.01, 0.01), "flip": (0.01, 1e-3)}
 
@@ -39,14 +41,7 @@ def test_every_suite_case_has_a_stored_reference():
     assert index["command"].startswith("lamella image-references")
 
 
-# one case of each family in `make test` (a rough coat over a metal, anisotropy, several coats, an
-# absorbing coat, thin and dense media, a diffuse base, glass, ENDF); every case in `make test-long`
-DRIFT_CASES = ("frosted_metal", "rotated_60", "three_coats", "tinted_varnish", "fog_g09_d1", "green_scatter_d6",
-               "varnished_wood", "rough_glass_plate", "endf_thin_gold")
-
-
-@pytest.mark.parametrize("case", [c if c in DRIFT_CASES else pytest.param(c, marks=pytest.mark.slow)
-                                  for c in suite.names()])
+@pytest.mark.parametrize("case", per_family(suite.names()))
 def test_osl_render_does_not_drift_from_its_reference(case, tmp_path):
     assert RECORDED["spp"] == images.SPP
     # the lobe budget the figures were recorded with (merging lobes samples them differently)

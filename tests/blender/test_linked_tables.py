@@ -7,6 +7,8 @@ the linked part exactly) does. Measured in `sphere-sun` with one ray per pixel a
 (a gradient across the sphere on two coat roughnesses, a checker on the base colour) linked into
 the Script node and the group alike: relative L1 0.43 % against OSL (the tables' interpolation;
 bench/linked_tables.md), and nothing of Cycles' "out of SVM stack space"."""
+import functools
+
 import numpy as np
 import pytest
 
@@ -18,6 +20,9 @@ from lamella.core.backends.ir.live_axes import MAX_AXES  # noqa: E402
 from lamella.core.backends.nodes.lower import emit_plan  # noqa: E402
 
 from .test_osl_exactness import SUN  # noqa: E402
+
+# the OSL render both tests compare with (a shader of about a megabyte to compile) is made once
+pytestmark = pytest.mark.xdist_group("linked_tables")
 
 
 def _link_textures(mat, sockets):
@@ -55,11 +60,20 @@ def _render_linked(stack, live, engine, live_axes="auto"):
     return px[..., :3], errors
 
 
+@functools.cache
+def _osl_render():
+    """Four coats with a medium, every textured input linked: the OSL shader (the linked part
+    traced exactly) rendered, with Cycles' errors."""
+    stack = _stack("4 coats + medium", None)
+    return _render_linked(stack, textured_sockets(stack), "cycles-osl")
+
+
 def test_a_textured_stack_too_large_for_svm_renders_from_its_tables_like_osl():
     stack = _stack("4 coats + medium", None)
     live = textured_sockets(stack)
     assert emit_plan(stack, live=live).staged.live_axes == MAX_AXES
-    a, errors = _render_linked(stack, live, "cycles-osl")
+    a, errors = _osl_render()
+    assert not errors, errors
     b, errors = _render_linked(stack, live, "cycles-nodes")
     assert not errors, errors
     assert np.isfinite(b).all() and (b >= 0).all()
@@ -83,7 +97,7 @@ def test_the_extension_falls_back_to_tables_and_says_so(addon):
 
     stack = _stack("4 coats + medium", None)
     live = textured_sockets(stack)
-    osl, _ = _render_linked(stack, live, "cycles-osl")
+    osl, _ = _osl_render()
     sc, sphere = sphere_scene(res=48, spp=1, scene="sphere-sun")
     sc.cycles.filter_width = 0.01
     mat = new_material(sphere)

@@ -1,6 +1,7 @@
 """Cycles never renders NaN, Inf or negative pixels for any stack kind, including the
 sphere's silhouette, where smooth-shaded normals face away from the viewer (N.I <= 0), and the
-4-coat example; and a passive stack never reflects more than it receives (white furnace)."""
+4-coat example; and a passive stack never reflects more than it receives (white furnace). One
+suite case of each family in `make test`, every case in `make test-long` (``cases.per_family``)."""
 import numpy as np
 import pytest
 
@@ -8,6 +9,8 @@ from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella_dev.render import render_stack  # noqa: E402
+
+from .cases import per_family  # noqa: E402
 
 EXAMPLES = ["four_coats", "coated_glass"]
 # every stack kind: the suite, the media / diffuse / glass / ENDF-sized cases, and the examples
@@ -18,7 +21,7 @@ def load(case):
     return suite.example(case) if case in EXAMPLES else suite.load(case)
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", per_family(CASES))
 def test_sphere_env_render_is_finite_and_non_negative(case):
     px, _ = render_stack(load(case), "sphere-env", res=40, spp=4)
     assert np.isfinite(px).all(), f"{case}: {np.count_nonzero(~np.isfinite(px))} non-finite values"

@@ -63,8 +63,10 @@ def _draw(rng, live, ids) -> dict:
     return {p: rng.uniform(0.1, 0.95) ** 2 if ids[p].is_roughness else rng.uniform(0.05, 2.0) for p in live}
 
 
-def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list[dict]:
-    """One row per stack class of ``recompile.STACKS`` (those named in ``labels``, default all)."""
+def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print, controls: bool = True) -> list[dict]:
+    """One row per stack class of ``recompile.STACKS`` (those named in ``labels``, default all).
+    ``controls=False``: the tables' errors only (the draws and the sweep), without the traced
+    staging they are compared with nor the node plans (what the page reports beside them)."""
     from lamella.core.backends.nodes.lower import emit_plan
     from lamella.core.backends.nodes.svm import live_values
     from .node_cost import textured_sockets
@@ -79,9 +81,9 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
         t0 = time.perf_counter()
         tab = staging.stage(stack, live=sockets, live_axes=MAX_AXES)
         seconds = time.perf_counter() - t0
-        traced = staging.stage(stack, live=sockets)
+        traced = staging.stage(stack, live=sockets) if controls else None
         rng = np.random.default_rng(seed)
-        errors = {"tables": [], "traced": []}
+        errors = {"tables": [], "traced": []} if controls else {"tables": []}
         for _ in range(draws):
             values = _draw(rng, tab.live, tab.ids)
             model = with_values(stack, values, tab.ids)
@@ -90,7 +92,7 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
                 wi = suite.incident(theta)
                 wo, _ = suite.wo_grid(wi)
                 want = api.evaluate(model, wi, wo)
-                for k, st in (("tables", tab), ("traced", traced)):
+                for k, st in (("tables", tab), ("traced", traced))[:len(errors)]:
                     got = evaluate_staged(st, wi, wo, np.float32, values=values).astype(float)
                     worst[k] = max(worst[k], float(np.abs(got - want).sum() / np.abs(want).sum()))
             for k in errors:
@@ -107,17 +109,21 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print) -> list
                 got = evaluate_staged(tab, wi, wo, np.float32, values=values).astype(float)
                 worst = max(worst, float(np.abs(got - want).sum() / np.abs(want).sum()))
             sweep[f"{r:.4f}"] = worst
+        row = {"stack": label, "live": sockets, "stage_s": seconds, "sweep": sweep,
+               **{f"{k}_median": float(np.median(v)) for k, v in errors.items()},
+               **{f"{k}_max": float(np.max(v)) for k, v in errors.items()}}
+        if not controls:
+            out.append(row)
+            continue
         plan = emit_plan(stack, live=sockets)
         tab_plan = emit_plan(stack, live=sockets, live_axes=MAX_AXES)
         image = next(iter(tab_plan.images.values()))
-        row = {"stack": label, "live": sockets, "stage_s": seconds,
-               "tables": [[list(t.params), list(t.data.shape)] for t in tab.axis_tables],
-               "image": list(image.shape[:2]), "image_mb": image.nbytes / 2**20,
-               "nodes_tables": len(tab_plan.nodes), "nodes_traced": len(emit_plan(stack, live=sockets, live_axes=0).nodes),
-               "live_values_tables": live_values(tab_plan), "picked": plan.staged.live_axes > 0,
-               "still_traced": list(tab.traced_params), "sweep": sweep,
-               **{f"{k}_median": float(np.median(v)) for k, v in errors.items()},
-               **{f"{k}_max": float(np.max(v)) for k, v in errors.items()}}
+        row.update({"tables": [[list(t.params), list(t.data.shape)] for t in tab.axis_tables],
+                    "image": list(image.shape[:2]), "image_mb": image.nbytes / 2**20,
+                    "nodes_tables": len(tab_plan.nodes),
+                    "nodes_traced": len(emit_plan(stack, live=sockets, live_axes=0).nodes),
+                    "live_values_tables": live_values(tab_plan), "picked": plan.staged.live_axes > 0,
+                    "still_traced": list(tab.traced_params)})
         progress(f"{label}: tables {row['tables_median']:.4f} / {row['tables_max']:.4f}, "
                  f"traced {row['traced_median']:.4f} / {row['traced_max']:.4f}")
         out.append(row)
