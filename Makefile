@@ -30,7 +30,7 @@ demo: setup
 	$(PY) demo_blend/build_showcase.py --out out $(DEMO_FLAGS)
 
 test: setup
-	$(VENV)/bin/pytest -q -n 3 --dist loadgroup
+	$(VENV)/bin/pytest -q -n 2 --dist loadgroup
 
 # The long checks `make test` leaves out (marked slow: the benches run end to end).
 test-long: setup
