@@ -57,7 +57,7 @@ suite's and the hold-out's coated conductors (gold_coated's relative L1 at 60 de
 0.207) and better only at 75 (0.415 -> 0.179). Kept by the keep rule
 (``lamella_dev.keep_rule``; the one-coat dielectric stacks are the only ones ``auto`` gives this
 model): the rough glass plate's relative L1 at 0 / 30 / 45 / 60 / 75 degrees 0.121 / 0.244 /
-0.364 / 0.411 / 0.495 -> 0.121 / 0.245 / 0.348 / 0.323 / 0.374, the hold-out's one-coat glass
+0.364 / 0.411 / 0.495 -> 0.121 / 0.245 / 0.348 / 0.323 / 0.373, the hold-out's one-coat glass
 stack unchanged. The trapped light's own energy and its ring of exit directions near the escape
 cone's edge (the same page) are not modelled.
 """
