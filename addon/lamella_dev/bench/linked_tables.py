@@ -81,9 +81,11 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print, control
         t0 = time.perf_counter()
         tab = staging.stage(stack, live=sockets, live_axes=MAX_AXES)
         seconds = time.perf_counter() - t0
-        traced = staging.stage(stack, live=sockets) if controls else None
+        compared = {"tables": tab}
+        if controls:
+            compared["traced"] = staging.stage(stack, live=sockets)
         rng = np.random.default_rng(seed)
-        errors = {"tables": [], "traced": []} if controls else {"tables": []}
+        errors = {k: [] for k in compared}
         for _ in range(draws):
             values = _draw(rng, tab.live, tab.ids)
             model = with_values(stack, values, tab.ids)
@@ -92,7 +94,7 @@ def rows(labels=None, draws: int = DRAWS, seed: int = 0, progress=print, control
                 wi = suite.incident(theta)
                 wo, _ = suite.wo_grid(wi)
                 want = api.evaluate(model, wi, wo)
-                for k, st in (("tables", tab), ("traced", traced))[:len(errors)]:
+                for k, st in compared.items():
                     got = evaluate_staged(st, wi, wo, np.float32, values=values).astype(float)
                     worst[k] = max(worst[k], float(np.abs(got - want).sum() / np.abs(want).sum()))
             for k in errors:

@@ -65,7 +65,7 @@ from __future__ import annotations
 
 from ..lobe_kinds.transmission import transmission_alpha_of_spread
 from .adding_doubling import BELCOUR2018
-from .ggx import alpha_of_projected_width
+from .ggx import alpha_across_of_round
 from .types import Lobe, UnsupportedStack, layer_params
 
 A3_SERIES_KAPPA = 0.5  # below this concentration A3 is evaluated by its series
@@ -130,17 +130,14 @@ def v_to_alpha(ops, v):
 def round_exit_alphas(ops, v_exit, mu):
     """The GGX reflection lobe (roughness along, across the plane of incidence) whose exit
     directions are round about the mirror direction with 1 / kappa = ``v_exit`` (Eq. 26's vMF of
-    exit directions read literally), at view cosine ``mu``. A half vector tilted by a small angle d turns the
-    reflected direction by 2 d along the plane of incidence and by 2 mu d across it, so an angular
+    exit directions read literally), at view cosine ``mu``. A half vector tilted by a small angle d
+    turns the reflected direction by 2 d along the plane of incidence and by 2 mu d across it, so an angular
     spread sqrt(v) of exit directions is a half-vector spread sqrt(v) / 2 along and sqrt(v) / (2 mu)
     across: alpha = sqrt(v / 2) along and alpha / mu across (Eq. 19's kappa_m = 4 mu kappa is
-    their geometric mean, sqrt(v / (2 mu)) round). Across, the projected width is modelled as in
-    ``ggx.alpha_of_projected_width`` with k = ``ROUND_EXIT_SATURATION``: the horizon cuts a broad
-    axis toward grazing."""
+    their geometric mean, sqrt(v / (2 mu)) round). Across: ``ggx.alpha_across_of_round`` with k =
+    ``ROUND_EXIT_SATURATION`` (the horizon cuts a broad axis toward grazing)."""
     along = v_to_alpha(ops, 0.25 * v_exit)
-    k = ROUND_EXIT_SATURATION
-    b = along * along * (1.0 + k * along * along)
-    return along, ops.min(alpha_of_projected_width(ops, b, mu, k), 1.0)
+    return along, alpha_across_of_round(ops, along, mu, ROUND_EXIT_SATURATION)
 
 
 def _refracted_cos(ops, mu, eta):

@@ -71,3 +71,12 @@ def alpha_of_projected_width(ops, b, c, k):
     the form that does not cancel."""
     c2 = c * c
     return ops.sqrt(2.0 * b / ops.max(ops.sqrt(c2 * c2 + 4.0 * k * b) + c2, 1e-30))
+
+
+def alpha_across_of_round(ops, a, c, k):
+    """The roughness across the plane of incidence of the GGX lobe that, seen at view cosine ``c``,
+    is as wide across as a lobe of roughness ``a`` is at normal incidence (its directions round in
+    angle about the mirror): the projected width of ``alpha_of_projected_width`` at normal
+    incidence, 2 a sqrt(1 + k a^2), matched at ``c``; a / c to first order, at most 1."""
+    b = a * a * (1.0 + k * a * a)
+    return ops.min(alpha_of_projected_width(ops, b, c, k), 1.0)

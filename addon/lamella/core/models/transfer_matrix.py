@@ -135,7 +135,7 @@ from . import film, hg
 from .adding_doubling import adding_doubling
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction
-from .ggx import alpha_of_projected_width
+from .ggx import alpha_across_of_round
 from .homogeneous_medium import once_forward, slab
 from .rgb import RGB
 from .types import COS_FLOOR, Lobe, UnsupportedStack, layer_normal, layer_params
@@ -381,8 +381,7 @@ def transfer_matrix(ops, stack, wi, model: TransferMatrix) -> list[Lobe]:
                 # round in angle in the coat that scattered it: across the plane of incidence a GGX
                 # lobe's projected width is 2 alpha cos (to first order), so the lobe as wide
                 # across as at normal incidence has alpha / cos there
-                b = a * a * (1.0 + FORWARD_SATURATION * a * a)
-                across = ops.min(alpha_of_projected_width(ops, b, cos_scattered, FORWARD_SATURATION), 1.0)
+                across = alpha_across_of_round(ops, a, cos_scattered, FORWARD_SATURATION)
                 lobes.append(Lobe(e, a, across, view_azimuth, FAMILY_KINDS[fam], normal=layer))
             else:
                 lobes.append(Lobe(e, a, a, 0.0, FAMILY_KINDS[fam], normal=layer))
