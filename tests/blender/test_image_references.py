@@ -23,7 +23,7 @@ pytest.importorskip("bpy")
 from lamella_dev.bench import images  # noqa: E402
 from lamella_dev.bench.image_references import IMAGE_REFERENCE_DIR, load_index  # noqa: E402
 
-from .cases import per_family  # noqa: E402
+from suite_cases import per_family  # noqa: E402
 
 RECORDED = json.loads((BENCH_DIR / "images.json").read_text())
 MARGIN = {"rmse": (0.01, 1e-4), "rmse_8px": (0.01, 1e-4), "delta_e00": (0.01, 0.01), "flip": (0.01, 1e-3)}

@@ -17,7 +17,7 @@ pytest.importorskip("bpy")
 from lamella_dev.render import render_stack  # noqa: E402
 
 from .test_osl_exactness import SUN, SUN_BEHIND, _load  # noqa: E402
-from .cases import per_family  # noqa: E402
+from suite_cases import per_family  # noqa: E402
 
 RES = 48
 CASES = [

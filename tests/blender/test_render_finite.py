@@ -10,7 +10,7 @@ from lamella_dev import suite
 pytest.importorskip("bpy")
 from lamella_dev.render import render_stack  # noqa: E402
 
-from .cases import per_family  # noqa: E402
+from suite_cases import per_family  # noqa: E402
 
 EXAMPLES = ["four_coats", "coated_glass"]
 # every stack kind: the suite, the media / diffuse / glass / ENDF-sized cases, and the examples

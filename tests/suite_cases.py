@@ -1,4 +1,4 @@
-"""The suite cases a per-case render test runs: one of each family in `make test`, every case in
+"""The suite cases a per-case test runs: one of each family in `make test`, every case in
 `make test-long` (``lamella_dev.suite.ONE_PER_FAMILY``)."""
 import pytest
 
