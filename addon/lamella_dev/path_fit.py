@@ -19,6 +19,13 @@ candidate by non-negative least squares to rank them, and for the best few of th
 program that minimises the L1 metric itself, which decides). The result
 is never above the model's own error: the model's lobes are the starting point and the fit keeps
 the best configuration it has evaluated, the model's included.
+
+The energies are free per lobe, so the floor may give one path's light to another path's lobe
+(the surface reflection of a rough coat drawn narrow to carry the core of the base's light): it is
+the floor of the closures, not of each path apart. Two partial fits tell the parts of the model's
+error apart (``fit``): *roughness*, each lobe's energy held at the model's (its integral on the
+grid) and only the roughnesses fitted, measures what the lobes' widths and shapes cost with every
+path keeping its own light; *energies*, the model's roughnesses held and only the energies fitted.
 """
 from __future__ import annotations
 
@@ -37,6 +44,7 @@ ALPHAS = np.geomspace(0.01, 1.0, 61)  # an isotropic lobe's roughness scan
 ALPHAS_2D = np.geomspace(0.01, 1.0, 21)  # each axis of an anisotropic lobe
 SWEEPS = 4  # coordinate-descent passes over the lobes at most (stops when one changes nothing)
 SHORTLIST = 6  # per lobe and pass, the candidates (ranked with least-squares energies) given exact L1 energies
+FITS = ("both", "roughness", "energies")  # what ``fit_paths`` fits: see the module
 
 
 @dataclass
@@ -74,10 +82,15 @@ def direction_inputs(ops, wi: np.ndarray, wo: np.ndarray) -> tuple[tuple, tuple]
             tuple(ops.input(n, wo[:, j]) for j, n in enumerate(("wo_x", "wo_y", "wo_z"))))
 
 
+def _unit_lobe_cos(ops, wi_vals, wo_vals, w, kind, ax, ay, rotation) -> np.ndarray:
+    """f cos of a lobe of ``kind`` and unit weight over the grid."""
+    lobe = Lobe((1.0, 1.0, 1.0), ax, ay, rotation, kind)
+    return np.broadcast_to(np.asarray(lobe_kinds.kind(kind).closure_cos(ops, lobe, wi_vals, wo_vals), float), w.shape)
+
+
 def lobe_shape(ops, wi_vals, wo_vals, w, kind, ax, ay, rotation) -> np.ndarray:
     """f cos of a lobe of ``kind`` and unit energy over the grid (unit integral against ``w``)."""
-    lobe = Lobe((1.0, 1.0, 1.0), ax, ay, rotation, kind)
-    v = np.broadcast_to(np.asarray(lobe_kinds.kind(kind).closure_cos(ops, lobe, wi_vals, wo_vals), float), w.shape)
+    v = _unit_lobe_cos(ops, wi_vals, wo_vals, w, kind, ax, ay, rotation)
     total = float((v * w).sum())
     return v / total if total > 1e-12 else np.zeros_like(w)
 
@@ -115,12 +128,15 @@ def _candidates(kind: str, ax: float, ay: float, plane: bool = False) -> list[tu
 
 
 def fit_paths(stack, wi: np.ndarray, wo: np.ndarray, w: np.ndarray, f_ref: np.ndarray,
-              model="auto", side: str = "reflected", plane: bool = False) -> PathFit:
+              model="auto", side: str = "reflected", plane: bool = False, fit: str = "both") -> PathFit:
     """The model's visible lobes on ``side`` at incidence ``wi`` with energies and roughnesses
     fitted to ``f_ref`` (f cos at ``wo``, weights ``w``), as described in the module. ``plane``:
     a closure shape the models do not emit, measured for what it would buy: every isotropic rough
     lobe becomes anisotropic with its axes along and across the plane of incidence (turned to the
-    view's azimuth), both roughnesses fitted."""
+    view's azimuth), both roughnesses fitted. ``fit``: one of ``FITS``, what is fitted (the
+    module)."""
+    if fit not in FITS:
+        raise ValueError(f"fit is one of {FITS}, got {fit!r}")
     ops = NumpyOps(np.float64)
     lb = api.lobes(stack, wi, model)
     ks = _visible(lb, side)
@@ -136,6 +152,11 @@ def fit_paths(stack, wi: np.ndarray, wo: np.ndarray, w: np.ndarray, f_ref: np.nd
     rot = [view_azimuth if in_plane[j] else float(lb.rotation[0, k]) for j, k in enumerate(ks)]
     sw = np.sqrt(w)
     cache: dict = {}
+    # the model's lobes' energies on the grid (what ``fit="roughness"`` holds): each lobe's weight
+    # times its closure's integral on the grid
+    held = np.stack([lb.weight[0, k] * float((_unit_lobe_cos(ops, wi_vals, wo_vals, w, kinds[j], *alphas_model[j],
+                                                             float(lb.rotation[0, k])) * w).sum())
+                     for j, k in enumerate(ks)])
 
     def shape(j, a):
         key = (j, a)
@@ -148,16 +169,16 @@ def fit_paths(stack, wi: np.ndarray, wo: np.ndarray, w: np.ndarray, f_ref: np.nd
 
     def rough_score(alphas):  # least-squares energies: ranks the candidates cheaply
         s = shapes_of(alphas)
-        return relative_l1(s.T @ _energies_l2(s, f_ref, sw), f_ref, w)
+        return relative_l1(s.T @ (held if fit == "roughness" else _energies_l2(s, f_ref, sw)), f_ref, w)
 
     def score(alphas):  # the energies that minimise the metric itself
         s = shapes_of(alphas)
-        e = _energies_l1(s, f_ref, w)
+        e = held if fit == "roughness" else _energies_l1(s, f_ref, w)
         return relative_l1(s.T @ e, f_ref, w), e
 
     alphas = list(alphas_model)
     best, energies = score(alphas)
-    for _ in range(SWEEPS):
+    for _ in range(SWEEPS if fit != "energies" else 0):
         moved = False
         for j, kind in enumerate(kinds):
             trials = [alphas[:j] + [a] + alphas[j + 1:] for a in _candidates(kind, *alphas_model[j], in_plane[j])]

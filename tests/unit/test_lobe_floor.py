@@ -31,5 +31,9 @@ def test_every_case_has_a_floor_at_most_the_models_error():
     for r in rows:
         assert 0.0 < r["rel_l1_floor"] <= r["rel_l1_auto"], r
         assert r["rel_l1_floor_plane"] <= r["rel_l1_floor"], r
+        # each partial fit starts from the model's lobes and is never above them; the full fit starts
+        # where the energies' fit ends
+        assert max(r["rel_l1_widths"], r["rel_l1_energies"]) <= r["rel_l1_auto"] + 1e-12, r
+        assert r["rel_l1_floor"] <= r["rel_l1_energies"] + 1e-12, r
         assert abs(r["above_floor"] - (r["rel_l1_auto"] - r["rel_l1_floor"])) < 1e-12
         assert len(r["alphas_fit"]) == len(r["kinds"]) == len(r["energies_fit"])

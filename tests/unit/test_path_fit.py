@@ -56,3 +56,21 @@ def test_the_floor_is_never_above_the_models_error_and_leaves_deltas_out():
         reflected = sum(1 for kind in lb.kinds if lobe_kinds.kind(kind).side == "reflected")
         assert len(fit.kinds) == reflected - smooth  # deltas and the transmitted side left out
         assert all(np.all(np.asarray(e) >= 0.0) for e in fit.energies)
+
+
+def test_the_partial_fits_hold_what_they_say():
+    """``fit="roughness"`` keeps every lobe's energy on the grid (the model's lobe's), ``fit="energies"``
+    every roughness; on a stack whose base lobe is too broad at normal incidence (frosted_metal)
+    the widths alone take most of the way to the floor and the energies alone do not."""
+    stack = suite.load("frosted_metal")
+    ref = load_reference("frosted_metal", REFERENCE_DIR_MULTIPLE)
+    f_ref, _ = reference_by_symmetry(ref, 0, stack)
+    args = (stack, suite.incident(0.0), ref["wo_0"], ref["weight_0"], f_ref)
+    both, widths, energies = (path_fit.fit_paths(*args, fit=f) for f in ("both", "roughness", "energies"))
+    assert energies.alphas == energies.alphas_model
+    # the lobes' energies on the grid: their weights less what falls below the horizon or between cells
+    lb = api.lobes(stack, args[1])
+    np.testing.assert_allclose(widths.energies, lb.weight[0], rtol=0.02)
+    assert widths.alphas != widths.alphas_model
+    assert both.rel_l1 <= energies.rel_l1 <= energies.rel_l1_model
+    assert widths.rel_l1 < both.rel_l1 + 0.05 < energies.rel_l1, (both.rel_l1, widths.rel_l1, energies.rel_l1)

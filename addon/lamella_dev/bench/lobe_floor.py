@@ -150,7 +150,9 @@ def measure(names=None) -> list[dict]:
 def measure_paths(names=None, progress: bool = False) -> list[dict]:
     """Per suite case (default: every one) and stored incidence: ``auto``'s relative L1 and its
     floor, the same lobes with every energy and roughness fitted to the reference (the reference
-    averaged over the directions the stack cannot tell apart, as ``bench/accuracy.md`` measures)."""
+    averaged over the directions the stack cannot tell apart, as ``bench/accuracy.md`` measures),
+    and the two partial fits that tell the model's error apart (``path_fit``'s ``fit``): the
+    roughnesses alone, every lobe keeping the model's energy (*widths*), and the energies alone."""
     from tqdm import tqdm
 
     rows = []
@@ -159,13 +161,16 @@ def measure_paths(names=None, progress: bool = False) -> list[dict]:
         ref = load_reference(name, REFERENCE_DIR_MULTIPLE)
         for i, deg in enumerate(ref["wi_degrees"]):
             f_ref, _ = reference_by_symmetry(ref, i, stack)
-            fit = fit_paths(stack, suite.incident(float(deg)), ref[f"wo_{i}"], ref[f"weight_{i}"], f_ref)
-            plane = fit_paths(stack, suite.incident(float(deg)), ref[f"wo_{i}"], ref[f"weight_{i}"], f_ref, plane=True)
+            args = (stack, suite.incident(float(deg)), ref[f"wo_{i}"], ref[f"weight_{i}"], f_ref)
+            fit, plane = fit_paths(*args), fit_paths(*args, plane=True)
+            widths, energies = fit_paths(*args, fit="roughness"), fit_paths(*args, fit="energies")
             rows.append({"case": name, "wi": float(deg), "model": api.lobes(stack, suite.incident(float(deg))).model,
                          "rel_l1_auto": fit.rel_l1_model, "rel_l1_floor": fit.rel_l1,
                          "above_floor": fit.rel_l1_model - fit.rel_l1, "kinds": list(fit.kinds),
                          "alphas_model": fit.alphas_model, "alphas_fit": fit.alphas, "energies_fit": fit.energies,
                          "rel_l1_floor_plane": min(plane.rel_l1, fit.rel_l1), "alphas_fit_plane": plane.alphas,
+                         "rel_l1_widths": widths.rel_l1, "alphas_fit_widths": widths.alphas,
+                         "rel_l1_energies": energies.rel_l1,
                          "ref_noise": reference_noise(ref, i)})
     return rows
 
@@ -205,6 +210,31 @@ def _paths_markdown(rows: list[dict]) -> list[str]:
                   f"{np.mean([r['above_floor'] for r in sel]):.3f} | {worst['above_floor']:.3f} ({worst['case']}) | "
                   f"{sum(r['above_floor'] > 0.05 for r in sel)} / {len(sel)} | "
                   f"{np.median([r['rel_l1_floor_plane'] for r in sel]):.3f} |")
+    md += ["", "### What the model's error above the floor is made of", "",
+           "The same lobes with only their roughnesses fitted, each keeping the model's energy (*widths*: every "
+           "path keeps its own light), and with only their energies fitted (*energies*: the model's roughnesses). "
+           "Where *widths* is near the floor, the lobes' widths are the model's error; where only the full fit "
+           "reaches the floor, the floor gives one path's light to another path's lobe (its energies are free "
+           "per lobe) or needs both at once. Each cell: auto / widths / energies / floor; the (case, angle) pairs "
+           "more than 0.05 above their floor at 0-60° in bold.", "",
+           "| case | " + " | ".join(f"{a:g}°" for a in angles) + " |",
+           "|---|" + "---|" * len(angles)]
+    for name in dict.fromkeys(r["case"] for r in rows):
+        sel = {r["wi"]: r for r in rows if r["case"] == name}
+
+        def cell(r):
+            text = (f"{r['rel_l1_auto']:.3f} / {r['rel_l1_widths']:.3f} / {r['rel_l1_energies']:.3f} / "
+                    f"{r['rel_l1_floor']:.3f}")
+            return f"**{text}**" if r["above_floor"] > 0.05 and r["wi"] <= 60.0 else text
+        md.append(f"| {name} | " + " | ".join(cell(sel[a]) if a in sel else "" for a in angles) + " |")
+    md += ["", "| θi | pairs above 0.05 | of them, widths within 0.05 of the floor | energies within 0.05 | "
+           "neither |", "|---:|---:|---:|---:|---:|"]
+    for a in angles:
+        above = [r for r in rows if r["wi"] == a and r["above_floor"] > 0.05]
+        widths = sum(r["rel_l1_widths"] - r["rel_l1_floor"] <= 0.05 for r in above)
+        energies = sum(r["rel_l1_energies"] - r["rel_l1_floor"] <= 0.05 for r in above)
+        neither = sum(min(r["rel_l1_widths"], r["rel_l1_energies"]) - r["rel_l1_floor"] > 0.05 for r in above)
+        md.append(f"| {a:g}° | {len(above)} | {widths} | {energies} | {neither} |")
     return md
 
 
