@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from lamella.core import metals, presets
+from lamella_dev import suite
 
 pytest.importorskip("bpy")
 from lamella.blender import api  # noqa: E402
@@ -11,7 +12,16 @@ from lamella.blender import api  # noqa: E402
 from .addon_helpers import engine_scene, new_material, render, sphere_scene  # noqa: E402
 
 
-@pytest.mark.parametrize("preset", [p.id for p in presets.builtin()])
+def _preset_params():
+    """Every built-in preset; those that are a suite case (the papers' stacks) other than one of
+    each family (``suite.ONE_PER_FAMILY``) only in ``make test-long``: ``test_render_finite``
+    renders the suite."""
+    slow = {p.id for p in presets.builtin() if p.path.parent == suite.STACK_DIR
+            and p.path.stem not in suite.ONE_PER_FAMILY}
+    return [pytest.param(p.id, marks=pytest.mark.slow) if p.id in slow else p.id for p in presets.builtin()]
+
+
+@pytest.mark.parametrize("preset", _preset_params())
 def test_preset_applies_and_renders_finite(addon, preset):
     sc, sphere = sphere_scene(res=32, spp=4)
     mat = new_material(sphere, preset)

@@ -21,6 +21,7 @@ from lamella.core.backends.evaluate import evaluate_staged
 
 pytest.importorskip("bpy")
 from lamella_dev.render import render_stack  # noqa: E402
+from suite_cases import per_family  # noqa: E402
 
 RES = 48
 SUN = np.array([0.0, -1.0, 1.0]) / math.sqrt(2.0)
@@ -57,12 +58,13 @@ def _load(case):
     return suite.example(case) if (suite.EXAMPLE_DIR / f"{case}.json").exists() else suite.load(case)
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", per_family(CASES))
 def test_osl_render_equals_numpy(case):
     """Isotropic, anisotropic, rotated and opposing anisotropy, an absorbing coat, 3 coats, 4
     coats mixing all of them (examples/four_coats.json), varnish over a diffuse base (diffuse
     closure), and scattering media over gold and over a conductor under a dielectric coat (tm6:
-    back-scatter lobes about the view direction)."""
+    back-scatter lobes about the view direction). `make test` renders the suite cases of
+    ``suite.ONE_PER_FAMILY`` and the example, `make test-long` every one."""
     _check(_load(case), SUN, open_back=False)
 
 
