@@ -59,8 +59,8 @@ def test_node_group_in_cycles_equals_the_osl_shader(case, behind):
 @pytest.mark.parametrize("case", per_family(suite.names()))
 def test_every_suite_stack_renders_in_cycles_without_osl_and_in_eevee(case):
     """The node group of every suite stack (one of each family in `make test`) renders finite, lit
-    and non-negative, in Cycles with OSL off (SVM, as on a GPU) and in EEVEE, with no renderer error in the log (tiny renders: this
-    checks that the graphs compile and run). In the white furnace: its light is non-negative, so a
+    and non-negative, in Cycles with OSL off (SVM, as on a GPU) and in EEVEE, with no renderer
+    error in the log (tiny renders: this checks that the graphs compile and run). In the white furnace: its light is non-negative, so a
     negative pixel is the material's. ``sphere-env``'s HDRI is not: forest.exr has 826 texels with
     a negative blue value (down to -2.2e-3, colours outside Rec.709), which a sampled path can
     reach (a Glossy BSDF there can render a pixel at -1e-6)."""

@@ -1,7 +1,7 @@
 """Cycles never renders NaN, Inf or negative pixels for any stack kind, including the
 sphere's silhouette, where smooth-shaded normals face away from the viewer (N.I <= 0), and the
 4-coat example; and a passive stack never reflects more than it receives (white furnace). One
-suite case of each family in `make test`, every case in `make test-long` (``cases.per_family``)."""
+suite case of each family in `make test`, every case in `make test-long` (``suite_cases.per_family``)."""
 import numpy as np
 import pytest
 

@@ -221,12 +221,7 @@ def _paths_markdown(rows: list[dict]) -> list[str]:
            "|---|" + "---|" * len(angles)]
     for name in dict.fromkeys(r["case"] for r in rows):
         sel = {r["wi"]: r for r in rows if r["case"] == name}
-
-        def cell(r):
-            text = (f"{r['rel_l1_auto']:.3f} / {r['rel_l1_widths']:.3f} / {r['rel_l1_energies']:.3f} / "
-                    f"{r['rel_l1_floor']:.3f}")
-            return f"**{text}**" if r["above_floor"] > 0.05 and r["wi"] <= 60.0 else text
-        md.append(f"| {name} | " + " | ".join(cell(sel[a]) if a in sel else "" for a in angles) + " |")
+        md.append(f"| {name} | " + " | ".join(_parts_cell(sel[a]) if a in sel else "" for a in angles) + " |")
     md += ["", "| θi | pairs above 0.05 | of them, widths within 0.05 of the floor | energies within 0.05 | "
            "neither |", "|---:|---:|---:|---:|---:|"]
     for a in angles:
@@ -236,6 +231,12 @@ def _paths_markdown(rows: list[dict]) -> list[str]:
         neither = sum(min(r["rel_l1_widths"], r["rel_l1_energies"]) - r["rel_l1_floor"] > 0.05 for r in above)
         md.append(f"| {a:g}° | {len(above)} | {widths} | {energies} | {neither} |")
     return md
+
+
+def _parts_cell(r: dict) -> str:
+    """auto / widths / energies / floor, bold where the pair is more than 0.05 above its floor at 0-60 degrees."""
+    text = f"{r['rel_l1_auto']:.3f} / {r['rel_l1_widths']:.3f} / {r['rel_l1_energies']:.3f} / {r['rel_l1_floor']:.3f}"
+    return f"**{text}**" if r["above_floor"] > 0.05 and r["wi"] <= 60.0 else text
 
 
 def _markdown(paths: list[dict], rows: list[dict]) -> str:
