@@ -86,6 +86,8 @@ def test_a_lossless_stack_returns_at_most_what_came_in(base, dtype):
     for ior, rough, d, ss, g, brough in itertools.product((1.0, 1.5, 2.5), (0.0, 0.3, 0.8), (0.05, 1.0, 10.0),
                                                          (0.5, 5.0), (-0.5, 0.0, 0.9), (0.0, 0.5)):
         b = dict(base)
+        if b["type"] == "diffuse" and brough:
+            continue  # a Lambertian base has no roughness: the same stack as with brough 0
         if b["type"] != "diffuse":
             b["roughness"] = brough
         st = {"layers": [_coat(ior, rough, d, sigma_s=[ss] * 3, g=g)], "base": b}
