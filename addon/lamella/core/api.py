@@ -93,8 +93,11 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True,
     give it (``layer_normals``; its tangent the shading tangent made orthogonal to it), its cosine
     factor about it too."""
     wo = _dirs(wo, dtype)
-    wi = np.broadcast_to(_dirs(wi, dtype), wo.shape)
-    ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
+    wi_given = _dirs(wi, dtype)
+    wi = np.broadcast_to(wi_given, wo.shape)
+    # one view for every outgoing direction (a BRDF slice): the model runs once, its lobes
+    # broadcast against ``wo`` (a look-up at one point gives the same bits as one lane of many)
+    ops, v, wi_vals, ls = _run(stack, wi_given if wi_given.shape[0] == 1 else wi, model, dtype)
     if not deltas:
         ls = [lobe for lobe in ls if not (lobe_kinds.kind(lobe.kind).rough and np.all(np.asarray(lobe.alpha_x) == 0.0)
                                           and np.all(np.asarray(lobe.alpha_y) == 0.0))]
