@@ -37,6 +37,40 @@ def engine_scene(engine: str, res=48, spp=8):
     return sc, sphere
 
 
+def sphere_grid(sc, sphere, count: int) -> list:
+    """``count`` spheres in a square grid filling the canonical scene's view (its orthographic
+    camera sees x and z in [-1.1, 1.1]), ``sphere`` the first, the others copies with their own
+    mesh (so each holds its own material): [(object, (row, column) of its centre's pixel, top row
+    first, radius in pixels)]. One render of many materials costs little more than one of a single
+    material (the render's set-up is most of a small render's time)."""
+    import math
+
+    n = max(1, math.ceil(math.sqrt(count)))
+    res = sc.render.resolution_x
+    cell = 2.2 / n
+    out = []
+    for k in range(count):
+        ob = sphere
+        if k:
+            ob = sphere.copy()
+            ob.data = sphere.data.copy()
+            sc.collection.objects.link(ob)
+        i, j = k % n, k // n
+        x, z = -1.1 + (i + 0.5) * cell, 1.1 - (j + 0.5) * cell
+        ob.location = (x, 0.0, z)
+        ob.scale = (0.45 * cell,) * 3
+        out.append((ob, ((1.1 - z) / 2.2 * res, (x + 1.1) / 2.2 * res), 0.45 * cell / 2.2 * res))
+    return out
+
+
+def grid_pixels(px: np.ndarray, centre, radius: float) -> np.ndarray:
+    """The RGBA pixels of ``px`` (top row first) within half of ``radius`` of ``centre`` (a
+    ``sphere_grid`` entry's): well inside that sphere's disc."""
+    rows, cols = np.mgrid[0:px.shape[0], 0:px.shape[1]]
+    near = (rows + 0.5 - centre[0]) ** 2 + (cols + 0.5 - centre[1]) ** 2 <= (0.5 * radius) ** 2
+    return px[near]
+
+
 def render(sc) -> np.ndarray:
     from lamella_dev.render import render_scene
 

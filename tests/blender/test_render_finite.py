@@ -1,16 +1,19 @@
 """Cycles never renders NaN, Inf or negative pixels for any stack kind, including the
 sphere's silhouette, where smooth-shaded normals face away from the viewer (N.I <= 0), and the
-4-coat example; and a passive stack never reflects more than it receives (white furnace). One
-suite case of each family in `make test`, every case in `make test-long` (``suite_cases.per_family``)."""
+4-coat example, every case on its own sphere of one scene; and a passive stack never reflects
+more than it receives (white furnace)."""
+import math
+
 import numpy as np
 import pytest
 
 from lamella_dev import suite
 
 pytest.importorskip("bpy")
-from lamella_dev.render import render_stack  # noqa: E402
+from lamella_dev.render import assign_material, build_scene, render_scene, render_stack  # noqa: E402
 
-from suite_cases import per_family  # noqa: E402
+from .addon_helpers import grid_pixels, sphere_grid  # noqa: E402
+
 
 EXAMPLES = ["four_coats", "coated_glass"]
 # every stack kind: the suite, the media / diffuse / glass / ENDF-sized cases, and the examples
@@ -21,13 +24,17 @@ def load(case):
     return suite.example(case) if case in EXAMPLES else suite.load(case)
 
 
-@pytest.mark.parametrize("case", per_family(CASES))
-def test_sphere_env_render_is_finite_and_non_negative(case):
-    px, _ = render_stack(load(case), "sphere-env", res=40, spp=4)
-    assert np.isfinite(px).all(), f"{case}: {np.count_nonzero(~np.isfinite(px))} non-finite values"
-    assert (px >= 0).all(), f"{case}: min {px.min()}"
-    sphere = px[..., 3] > 0.999
-    assert px[sphere, :3].mean() > 0.01
+def test_sphere_env_render_is_finite_and_non_negative():
+    """Every case on its own sphere of one scene (Cycles with OSL), rendered once."""
+    sc, sphere = build_scene("sphere-env", 24 * math.ceil(math.sqrt(len(CASES))), 4)
+    spheres = sphere_grid(sc, sphere, len(CASES))
+    for case, (ob, _, _) in zip(CASES, spheres):
+        assign_material(ob, load(case), "cycles-osl")
+    px, _ = render_scene(sc)
+    assert np.isfinite(px).all(), f"{np.count_nonzero(~np.isfinite(px))} non-finite values"
+    assert (px >= 0).all(), f"min {px.min()}"
+    for case, (_, centre, radius) in zip(CASES, spheres):
+        assert grid_pixels(px, centre, radius)[:, :3].mean() > 0.01, case
 
 
 @pytest.mark.parametrize("case,spp", [("gold_coated", 16), ("four_coats", 16), ("varnished_wood", 16),
