@@ -63,11 +63,11 @@ def sphere_grid(sc, sphere, count: int) -> list:
     return out
 
 
-def grid_pixels(px: np.ndarray, centre, radius: float) -> np.ndarray:
-    """The RGBA pixels of ``px`` (top row first) within half of ``radius`` of ``centre`` (a
-    ``sphere_grid`` entry's): well inside that sphere's disc."""
+def grid_pixels(px: np.ndarray, centre, radius: float, part: float = 0.5) -> np.ndarray:
+    """The RGBA pixels of ``px`` (top row first) within ``part`` of ``radius`` of ``centre`` (a
+    ``sphere_grid`` entry's): by default well inside that sphere's disc."""
     rows, cols = np.mgrid[0:px.shape[0], 0:px.shape[1]]
-    near = (rows + 0.5 - centre[0]) ** 2 + (cols + 0.5 - centre[1]) ** 2 <= (0.5 * radius) ** 2
+    near = (rows + 0.5 - centre[0]) ** 2 + (cols + 0.5 - centre[1]) ** 2 <= (part * radius) ** 2
     return px[near]
 
 
