@@ -83,8 +83,11 @@ def test_a_lossless_stack_returns_at_most_what_came_in(base, dtype):
     float32. The scattered families are scaled to what the primary model's lobes leave (without
     the scale a coat of index 2.5, alpha 0.8 over a mirror returned 1.09 at 89 degrees)."""
     worst = 0.0
-    for ior, rough, d, ss, g, brough in itertools.product((1.0, 1.5, 2.5), (0.0, 0.3, 0.8), (0.05, 1.0, 10.0),
-                                                         (0.5, 5.0), (-0.5, 0.0, 0.9), (0.0, 0.5)):
+    # thickness and scattering coefficient: with nothing absorbed a medium is its optical depth
+    # sigma_s d alone, so one pair per depth (0.025, 0.25, 0.5, 5, 50)
+    depths = ((0.05, 0.5), (0.05, 5.0), (1.0, 0.5), (1.0, 5.0), (10.0, 5.0))
+    for ior, rough, (d, ss), g, brough in itertools.product((1.0, 1.5, 2.5), (0.0, 0.3, 0.8), depths,
+                                                           (-0.5, 0.0, 0.9), (0.0, 0.5)):
         b = dict(base)
         if b["type"] == "diffuse" and brough:
             continue  # a Lambertian base has no roughness: the same stack as with brough 0
