@@ -359,3 +359,20 @@ def test_the_forward_light_scattered_once_is_part_of_the_forward_secondary(dtype
             assert np.isfinite(once).all() and (once >= 0.0).all()
             assert (once <= (t - tpp) * (1 + 1e-4) + 1e-7).all(), (g, sa, ss, once, t - tpp)
             np.testing.assert_allclose(once[0], (t - tpp)[0], rtol=2e-3, atol=2e-7 if dtype == np.float32 else 0.0)
+
+
+def test_light_refracted_near_grazing_under_an_index_matched_coat_is_not_trapped_in_float32():
+    """Found by the test above: a view 1e-7 from grazing on a coat of index 1.0000001 refracts to a
+    near-grazing ray inside it, whose way back up the Fresnel factor from below saw as totally
+    reflected in float32 (cos_t^2 rounded negative): the light was trapped, and the medium below
+    turned it all into scattered light, more than came in (1.0000372). From below along the
+    refracted mean direction the smooth reflectance is now the one from above (Stokes)."""
+    d = {"layers": [{"ior": 1.0000001, "roughness": 0.0},
+                    {"ior": 3.0, "roughness": 0.0, "thickness": 1e-06, "sigma_s": [0.0, 0.0, 1.0], "g": -0.999},
+                    {"ior": 1.0, "roughness": 0.0}],
+         "base": dict(GOLD, roughness=0.0)}
+    wi = np.array([[0.364595557, 0.931165979, 1e-07]])
+    for dtype in (np.float32, np.float64):
+        lb = lc.lobes(d, wi, "tm6", dtype=dtype)
+        assert (lb.weight.sum(1) <= 1.0 + (2e-5 if dtype == np.float32 else 1e-9)).all(), lb.weight.sum(1)
+        assert lb.weight[0, 1, 0] > 1e-4  # the light the index-3 coat's top reflects comes back out

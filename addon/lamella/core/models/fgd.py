@@ -60,7 +60,7 @@ def fgd_quadrature(ops, mu, alpha, fresnel):
     return ops.clamp(rough + (fresnel(mu) - interp) * smooth_weight(ops, alpha), 0.0, 1.0)
 
 
-def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
+def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False, smooth=None):
     """FGD of a dielectric interface, light from the side of index n1 onto n2, eta = n2 / n1
     (total internal reflection included through the exact Fresnel curve).
 
@@ -72,11 +72,19 @@ def fgd_dielectric(ops, mu, alpha, eta, multiple: bool = False):
     others past their own critical angle, and FGD's quadrature rounds the Fresnel curve's kink at the
     critical angle off. From the lighter side the two agree within 0.01 (alpha up to 0.6), and the
     part single scattering misses leaves broader than the GGX lobe FGD weights, so the models use
-    this from below only (``adding_doubling``)."""
+    this from below only (``adding_doubling``).
+
+    ``smooth``: the smooth interface's reflectance to hand over to (``multiple=True``), where the
+    caller has it more exactly than the Fresnel factor at ``mu``: from below along the refracted
+    mean direction it is the reflectance from above at the incidence (Stokes' relations), which in
+    float32 does not cancel where the refracted ray runs near grazing under an index-matched
+    interface (index 1.0000001 at 1e-7 from grazing: cos_t^2 from below rounds negative, a false
+    total internal reflection that trapped the light)."""
     if multiple:
         rough = ops.lut("dielectric_rough_reflect", luts.ms_x_to_coord(ops, mu, eta),
                         luts.alpha_to_coord(ops, alpha), luts.ms_eta_to_coord(ops, eta))
-        return ops.clamp(rough + (fresnel_dielectric(ops, mu, eta) - rough) * smooth_weight(ops, alpha), 0.0, 1.0)
+        exact = fresnel_dielectric(ops, mu, eta) if smooth is None else smooth
+        return ops.clamp(rough + (exact - rough) * smooth_weight(ops, alpha), 0.0, 1.0)
     return fgd_quadrature(ops, mu, alpha, lambda c: fresnel_dielectric(ops, c, eta))
 
 

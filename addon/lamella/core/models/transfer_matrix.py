@@ -135,6 +135,7 @@ from . import film, hg
 from .adding_doubling import adding_doubling
 from .diffuse_transport import SCATTERED_POINTS, DiffuseUp
 from .fgd import fgd_dielectric, tir_fraction
+from .fresnel import fresnel_dielectric
 from .ggx import alpha_across_of_round
 from .homogeneous_medium import once_forward, slab
 from .rgb import RGB
@@ -525,7 +526,8 @@ def _interface(ops, cti, alpha, n12, g1, p, n_above):
     transmits = cos2_num > 0.0
     ctt = ops.sqrt(ops.max(cos2_num, 0.0) / (n12 * n12))
     R = ops.select(transmits, fgd_dielectric(ops, cti, alpha, n12), 1.0)
-    R21 = ops.select(transmits, fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True), 1.0)
+    R21 = ops.select(transmits, fgd_dielectric(ops, ctt, alpha, 1.0 / n12, multiple=True,
+                                               smooth=fresnel_dielectric(ops, cti, n12)), 1.0)
     R, R21 = film.dielectric_energies(ops, p, cti, alpha, n_above, p["ior"], R, R21, transmits)
     # Belcour 2018's fake-refraction scale at normal incidence, as the adding-doubling models use
     # it: a facet tilt d deviates a refracted ray by d |1 - 1 / n12|, a reflected one by 2 d, so the
