@@ -205,10 +205,11 @@ def evaluate_case(name: str, ref: dict, models=MODELS, stack=None, cache: dict |
 
     def model_values(m, deg, wi, wo, side="reflected"):
         key = (m, float(deg), side, wo.shape, wo.tobytes())
-        if key not in cache:
-            cache[key] = (api.evaluate(stack, wi, wo, m, deltas=False),  # deltas: compared through the albedo
-                          api.albedo(stack, wi, m, side=side)[0])
-        return cache[key]
+        if key not in cache:  # deltas: compared through the albedo
+            cache[key] = api.evaluate(stack, wi, wo, m, deltas=False)
+        if (m, float(deg), side) not in cache:  # the albedo does not depend on the grid
+            cache[(m, float(deg), side)] = api.albedo(stack, wi, m, side=side)[0]
+        return cache[key], cache[(m, float(deg), side)]
 
     rows = []
     for i, deg in enumerate(ref["wi_degrees"]):
