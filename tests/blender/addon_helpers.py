@@ -2,6 +2,8 @@
 and a stand-in for Blender's UI layout (panel ``draw`` never runs headless)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -43,8 +45,6 @@ def sphere_grid(sc, sphere, count: int) -> list:
     mesh (so each holds its own material): [(object, (row, column) of its centre's pixel, top row
     first, radius in pixels)]. One render of many materials costs little more than one of a single
     material (the render's set-up is most of a small render's time)."""
-    import math
-
     n = max(1, math.ceil(math.sqrt(count)))
     res = sc.render.resolution_x
     cell = 2.2 / n

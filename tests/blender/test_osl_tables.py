@@ -45,8 +45,9 @@ READS = {
 # Every table is read in one render per source: the middle square of the sphere's image (|x|, |z|
 # below SQUARE, inside its disc) is cut into GRID x GRID cells, table k of ``TABLES`` read in cell
 # k over its whole coordinate range (c0, c1 from the position within the cell, c2 from both). A
-# pixel's colour is (value, u, v), (u, v) the position in the square: the cell and the coordinates
-# follow from it exactly (GRID is a power of two, so u * GRID is exact in float32 as in numpy).
+# pixel's colour is (value, su, sv), (su, sv) the position in the square: the cell and the
+# coordinates follow from it exactly (GRID is a power of two, so su * GRID is exact in float32 as
+# in numpy).
 TABLES = sorted(READS)
 GRID = 4
 SQUARE = 0.68

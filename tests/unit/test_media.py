@@ -362,7 +362,7 @@ def test_the_forward_light_scattered_once_is_part_of_the_forward_secondary(dtype
 
 
 def test_light_refracted_near_grazing_under_an_index_matched_coat_is_not_trapped_in_float32():
-    """Found by the test above: a view 1e-7 from grazing on a coat of index 1.0000001 refracts to a
+    """Found by ``test_media_outputs_are_finite_and_passive``: a view 1e-7 from grazing on a coat of index 1.0000001 refracts to a
     near-grazing ray inside it, whose way back up the Fresnel factor from below saw as totally
     reflected in float32 (cos_t^2 rounded negative): the light was trapped, and the medium below
     turned it all into scattered light, more than came in (1.0000372). From below along the
