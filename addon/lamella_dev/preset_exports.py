@@ -13,15 +13,16 @@ folders, made by ``lamella export-presets`` (``make exports``).
   The .blend must be saved by the oldest Blender the extension supports (``blender_manifest.toml``:
   a file saved by 5.x does not open in 4.2), so this part runs in a separate process of that
   Blender's bpy (``--blender-python``; ``make exports`` sets it up). ``node_groups/manifest.json``
-  records what each group was built from (the stack's hash and ``compile_digest``), so a test can
-  tell that a preset changed without the library being rebuilt (a .blend is not byte-stable).
+  records what each group was built from (the stack's hash and the digest of ``compiled``'s
+  structure) and ``node_groups/compiled_numbers.npz`` the numbers it computed, so a test can tell
+  that a preset or the compiler changed without the library being rebuilt (a .blend is not
+  byte-stable), on any processor: the numbers compare within ``golden.TOLERANCE``.
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 import json
-import numbers
 import os
 import shutil
 import subprocess
@@ -38,6 +39,8 @@ from lamella.core.backends.osl.bundle import TABLES_DIR, write_bundle
 from lamella.core.backends.osl.emit import VIEW_TARGETS, osl_shader
 from lamella.core.models import resolve
 
+from . import golden
+
 ROOT = Path(__file__).resolve().parents[2]
 OSL_DIR = ROOT / "osl"
 NODE_GROUPS_DIR = ROOT / "node_groups"
@@ -45,6 +48,7 @@ README = "README.md"
 LIBRARY_FILE = "lamella_node_groups.blend"
 CATALOG_FILE = "blender_assets.cats.txt"
 MANIFEST = "manifest.json"
+NUMBERS = "compiled_numbers.npz"  # the computed numbers of what each group was built from (``compiled``)
 OLDEST_BPY = "4.2.23"  # the bpy wheel of blender_manifest.toml's blender_version_min (make test-blender-versions)
 REGENERATE = "make exports"
 # Bumped when the way a group is made from what ``compile_digest`` covers changes (the face's
@@ -105,8 +109,10 @@ def osl_readme(out_dir: Path) -> str:
         "Each folder `<target>/<preset>/` is one self-contained bundle (`lamella export-osl`, "
         "`lamella.core.backends.osl.bundle`): the shader `lamella_<preset>.osl`, a `README.md` describing "
         "its model, closures and every input, and the look-up tables it reads in `luts/`. A preset's "
-        "shader bakes every layer value into its own constant table, so it reads no file and its only "
-        "inputs are `Normal` and `Tangent`. For a shader whose layer values are inputs (to texture them), "
+        "shader bakes every layer value into its own constant table, so it reads no file; its inputs are "
+        "`Normal` and `Tangent`, and the sockets its procedural inputs feed where the preset has some (a "
+        "wear mask, a film's thickness: the table's last column), where a TD connects their own. For a "
+        "shader whose layer values are inputs (to texture them), "
         "export the preset's JSON (`addon/lamella/data/presets/`) with "
         "`lamella export-osl PRESET.json -o DIR --live all`: that one reads the EXR tables, which the "
         "bundle copies into its `luts/`.",
@@ -116,8 +122,9 @@ def osl_readme(out_dir: Path) -> str:
         "- `cycles`: Blender's Cycles, `I` points toward the viewer (a Script node in Blender);",
         "- `osl-spec`: the OSL specification, `I` points toward the surface (other OSL renderers).",
         "",
-        "| preset | description | model | " + " | ".join(f"`{t}`" for t in VIEW_TARGETS) + " |",
-        "|---|---|---|" + "---|" * len(VIEW_TARGETS),
+        "| preset | description | model | " + " | ".join(f"`{t}`" for t in VIEW_TARGETS) + " | inputs besides "
+        "Normal and Tangent |",
+        "|---|---|---|" + "---|" * len(VIEW_TARGETS) + "---|",
     ]
     for p in _presets():
         stack = p.load()
@@ -127,8 +134,9 @@ def osl_readme(out_dir: Path) -> str:
             tables = sorted((out_dir / d / TABLES_DIR).glob("*.exr"))
             extra = f" (+{len(tables)} tables)" if tables else ""
             cells.append(f"[`{shader_file(p)}`]({d / shader_file(p)}){extra}")
+        inputs = ", ".join(f"`{socket}`" for socket in _live(p)) or "none"
         lines.append(f"| **{p.label}** (`{p.id}`) | {p.description} | `{resolve('auto', stack).name}` | "
-                     + " | ".join(cells) + " |")
+                     + " | ".join(cells) + f" | {inputs} |")
     lines += [
         "",
         "The OSL the extension itself emits ships inside the package, so that every install of Lamella (the "
@@ -142,27 +150,51 @@ def osl_readme(out_dir: Path) -> str:
     return "\n".join(lines)
 
 
-def tree_digests(folder: Path) -> dict[str, str]:
-    """Relative path -> sha256 of every file under ``folder``."""
-    folder = Path(folder)
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+TEXT_SUFFIXES = (".osl", ".md", ".h", ".json")  # compared apart from float noise (``golden``)
+
+
+def file_change(fresh: Path, stored: Path) -> str | None:
+    """None when the file ``fresh`` is what ``stored`` holds; else what differs. A text file is the
+    same when its text outside the float literals is and each literal agrees within
+    ``golden.TOLERANCE`` (another processor prints other last digits); any other file byte for
+    byte (the tables a bundle copies from the package)."""
+    if fresh.suffix not in TEXT_SUFFIXES:
+        return None if fresh.read_bytes() == stored.read_bytes() else "changed"
+    (text_new, numbers_new), (text_old, numbers_old) = (golden.split_text(p.read_text(encoding="utf-8"))
+                                                        for p in (fresh, stored))
+    if text_new != text_old:
+        return "changed"
+    numbers = golden.number_changes(numbers_old, numbers_new)
+    return None if numbers is None else f"changed ({numbers})"
+
+
+def tree_changes(fresh: Path, committed: Path) -> list[str]:
+    """What differs between the folders ``fresh`` (regenerated) and ``committed``: one line per
+    bundle (and per other file) that changed, was added or is gone; empty when they agree
+    (``file_change``)."""
+    fresh, committed = Path(fresh), Path(committed)
+
+    def files(folder):
+        return {str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()} if folder.is_dir() else set()
+
+    new, old = files(fresh), files(committed)
+    by_bundle: dict[str, list[str]] = {}
+    for k in sorted(new | old):
+        state = ("new" if k not in old else "gone" if k not in new else file_change(fresh / k, committed / k))
+        if state is None:
+            continue
+        parts = Path(k).parts
+        where = f"{parts[1]} ({parts[0]})" if len(parts) > 2 else k
+        by_bundle.setdefault(where, []).append(f"{'/'.join(parts[2:]) or k} {state}")
+    return [f"{where}: {', '.join(items)}" for where, items in by_bundle.items()]
 
 
 def osl_changes(committed: Path = OSL_DIR) -> list[str]:
-    """What differs between ``committed`` and ``osl/`` regenerated now: one line per preset (and per
-    other file) that changed, was added or is gone; empty when it is current."""
+    """What differs between ``committed`` and ``osl/`` regenerated now (``tree_changes``); empty
+    when it is current."""
     with tempfile.TemporaryDirectory() as tmp:
         write_osl(Path(tmp))
-        fresh, old = tree_digests(Path(tmp)), tree_digests(committed)
-    changed = sorted(k for k in fresh.keys() | old.keys() if fresh.get(k) != old.get(k))
-    by_bundle: dict[str, list[str]] = {}
-    for k in changed:
-        parts = Path(k).parts
-        where = f"{parts[1]} ({parts[0]})" if len(parts) > 2 else k
-        state = "new" if k not in old else "gone" if k not in fresh else "changed"
-        by_bundle.setdefault(where, []).append(f"{'/'.join(parts[2:]) or k} {state}")
-    return [f"{where}: {', '.join(files)}" for where, files in by_bundle.items()]
+        return tree_changes(Path(tmp), committed)
 
 
 # ---------------------------------------------------------------- node_groups/: what a group is built from
@@ -180,54 +212,45 @@ def stack_digest(stack) -> str:
     return hashlib.sha256(json.dumps(stack.to_dict(), sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _canonical(obj):
-    """``obj`` as plain JSON values, whatever numpy's scalars print as (numpy 2 writes
-    ``np.float64(0.5)``, numpy 1 ``0.5``: the library is built under the oldest Blender's numpy)."""
+@dataclasses.dataclass(frozen=True)
+class Compiled:
+    """What the extension compiles for a stack in a material with nothing linked, as a golden that
+    holds on any processor (``golden``): ``structure``, the digest of everything but the computed
+    numbers (the OSL source of its Script node with its float literals blanked, the node plan of
+    its node group, its tables' shapes, the layout versions of the tables and of this export, the
+    procedural inputs built into the group); ``numbers``, those computed numbers by part (the
+    shader's literals, the plan's values, each table's pixels)."""
 
-    if dataclasses.is_dataclass(obj):
-        return [type(obj).__name__, _canonical(dataclasses.asdict(obj))]
-    if isinstance(obj, dict):
-        return [[str(k), _canonical(v)] for k, v in sorted(obj.items(), key=lambda kv: str(kv[0]))]
-    if isinstance(obj, (list, tuple)):
-        return [_canonical(v) for v in obj]
-    if isinstance(obj, (bool, str)) or obj is None:
-        return obj
-    if isinstance(obj, numbers.Integral):
-        return int(obj)
-    if isinstance(obj, numbers.Real):
-        return repr(float(obj))
-    raise TypeError(f"cannot digest {type(obj).__name__}")
+    structure: str
+    numbers: dict
 
 
-def compile_digest(stack, inputs=()) -> str:
-    """What the extension compiles for ``stack`` in a material with nothing linked, as a digest: the
-    OSL source of its Script node and the node plan of its node group (nodes, closures, the table's
-    pixels), with the layout versions of the tables and of this export. No bpy: the test recomputes it
-    in any Python."""
-
+def compiled(stack, inputs=()) -> Compiled:
+    """``Compiled`` of ``stack`` with the procedural ``inputs`` (``presets.Preset.inputs``). No bpy:
+    the test recomputes it in any Python."""
 
     # as recompile.build_shader and material_nodes.install_group (the lobe budget's default "auto");
     # the table folder and the image name are placeholders: neither is part of what renders
     live = tuple(socket for socket, _ in inputs)
     shader = osl_shader(stack, "auto", live=live, budget="auto", engine_switch=True, tables="inline")
     plan = emit_plan(stack, "auto", live=live, budget="auto", image="table", staged_ir=shader.staged)
-    h = hashlib.sha256()
-    h.update(f"layout {EXPORT_LAYOUT} luts {luts.LAYOUT}\n".encode())
-    h.update(json.dumps(list(inputs)).encode())  # the procedural inputs built into the group
-    h.update(shader.source.encode())
-    h.update(json.dumps(_canonical([[n.bl_idname, n.props, n.inputs] for n in plan.nodes])).encode())
-    h.update(json.dumps(_canonical([plan.leaves, plan.bsdfs, plan.frame, plan.model])).encode())
-    for name, pixels in sorted(plan.images.items()):
-        px = np.ascontiguousarray(pixels, dtype=np.float32)
-        h.update(repr(px.shape).encode())
-        h.update(px.tobytes())
-    return h.hexdigest()[:16]
+    source, source_numbers = golden.split_text(shader.source)
+    nodes, node_numbers = golden.split_values([[n.bl_idname, n.props, n.inputs] for n in plan.nodes])
+    closures, closure_numbers = golden.split_values([plan.leaves, plan.bsdfs, plan.frame, plan.model])
+    images = {name: np.ascontiguousarray(px, dtype=np.float32) for name, px in sorted(plan.images.items())}
+    structure = golden.digest(f"layout {EXPORT_LAYOUT} luts {luts.LAYOUT}", list(inputs), source, nodes, closures, [[name, list(px.shape)] for name, px in images.items()])
+    numbers = {"shader": source_numbers, "nodes": np.array(node_numbers, dtype=np.float64),
+               "closures": np.array(closure_numbers, dtype=np.float64),
+               **{f"image {name}": px.reshape(-1) for name, px in images.items()}}
+    return Compiled(structure, numbers)
 
 
-def manifest_entry(preset) -> dict:
-    """The manifest's record of ``preset``: what its group is and what it was built from."""
+def manifest_entry(preset, built: Compiled | None = None) -> dict:
+    """The manifest's record of ``preset``: what its group is and what it was built from (the
+    digest of ``compiled``'s structure; its numbers go to ``NUMBERS``)."""
 
     stack = preset.load()
+    built = built or compiled(stack, preset.inputs)
     return {
         "id": preset.id,
         "label": preset.label,
@@ -237,26 +260,66 @@ def manifest_entry(preset) -> dict:
         "model": resolve("auto", stack).name,
         "transmits": bool(stack.base.kind.transmits),
         "stack_sha256": stack_digest(stack),
-        "compile_digest": compile_digest(stack, preset.inputs),
+        "structure_digest": built.structure,
     }
 
 
-def node_group_changes(folder: Path = NODE_GROUPS_DIR) -> list[str]:
-    """What differs between ``folder``'s manifest and what the current code and presets would build:
-    one line per preset; empty when the library is current."""
-    path = Path(folder) / MANIFEST
-    if not path.is_file() or not (Path(folder) / LIBRARY_FILE).is_file():
-        return [f"{_rel(path.parent)} has no {MANIFEST} or {LIBRARY_FILE}"]
-    stored = {e["id"]: e for e in json.loads(path.read_text())["presets"]}
+def numbers_key(preset_id: str, part: str) -> str:
+    return f"{preset_id}:{part}"
+
+
+def write_manifest(out_dir: Path, blender: str) -> dict:
+    """``MANIFEST``, ``NUMBERS`` and ``README`` of ``out_dir`` for every preset, from what this Python
+    compiles. Returns the manifest."""
+    out_dir = Path(out_dir)
+    entries, numbers = [], {}
+    for p in _presets():
+        built = compiled(p.load(), p.inputs)
+        entries.append(manifest_entry(p, built))
+        numbers.update({numbers_key(p.id, part): values for part, values in built.numbers.items()})
+    manifest = {"blender": blender, "file": LIBRARY_FILE,
+                "tolerance": {"rtol": golden.TOLERANCE.rtol, "atol": golden.TOLERANCE.atol}, "presets": entries}
+    (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
+    np.savez_compressed(out_dir / NUMBERS, **numbers)
+    (out_dir / README).write_text(node_groups_readme(manifest))
+    return manifest
+
+
+def node_group_changes(folder: Path = NODE_GROUPS_DIR, compile=None) -> list[str]:
+    """What differs between ``folder``'s manifest and numbers and what the current code and presets
+    would build (``compile(stack, inputs)``, default ``compiled``): one line per preset; empty when
+    the library is current. The structure and the manifest's records compare exactly, the numbers
+    within the manifest's tolerance (``golden``)."""
+    compile = compile or compiled
+    folder = Path(folder)
+    missing = [name for name in (MANIFEST, NUMBERS, LIBRARY_FILE) if not (folder / name).is_file()]
+    if missing:
+        return [f"{_rel(folder)} has no {', '.join(missing)}"]
+    manifest = json.loads((folder / MANIFEST).read_text())
+    tolerance = golden.Tolerance(**manifest.get("tolerance", dataclasses.asdict(golden.TOLERANCE)))
+    stored = {e["id"]: e for e in manifest["presets"]}
+    with np.load(folder / NUMBERS) as npz:
+        stored_numbers = {k: npz[k] for k in npz.files}
     out = []
     for p in _presets():
-        want, have = manifest_entry(p), stored.pop(p.id, None)
+        have = stored.pop(p.id, None)
         if have is None:
             out.append(f"{p.id}: not in the library")
             continue
-        diff = [k for k in want if want[k] != have.get(k)]
+        built = compile(p.load(), p.inputs)
+        want = manifest_entry(p, built)
+        diff = [f"{k} changed" for k in want if want[k] != have.get(k)]
+        keys = {numbers_key(p.id, part) for part in built.numbers}
+        for part, values in built.numbers.items():
+            key = numbers_key(p.id, part)
+            if key not in stored_numbers:
+                diff.append(f"{part} not stored")
+            elif (change := golden.number_changes(stored_numbers[key], values, tolerance)) is not None:
+                diff.append(f"{part}: {change}")
+        diff += [f"{k.split(':', 1)[1]} no longer built" for k in stored_numbers
+                 if k.startswith(f"{p.id}:") and k not in keys]
         if diff:
-            out.append(f"{p.id}: {', '.join(diff)} changed")
+            out.append(f"{p.id}: {'; '.join(diff)}")
     out += [f"{pid}: no longer a preset" for pid in stored]
     return out
 
@@ -340,7 +403,7 @@ def build_node_groups(out_dir: Path, previews: bool = True) -> Path:
             pixels[p.id] = _preview(render_scene, sc)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.scene.render.engine = "CYCLES"  # where Script nodes get their sockets
-    trees, mats, entries = [], [], []
+    trees, mats = [], []
     for p in _presets():
         mat = bpy.data.materials.new(p.label)
         api.apply_preset(mat, p.id)
@@ -351,24 +414,20 @@ def build_node_groups(out_dir: Path, previews: bool = True) -> Path:
         trees.append(node.node_tree)
     for p, tree, mat in zip(_presets(), trees, mats):  # once every material is built: no compile runs after
         _strip(tree, p, mat)
-        entry = manifest_entry(p)
         tree.asset_mark()
         tree.asset_data.description = p.description
-        tree.asset_data.catalog_id = presets.catalog_id(entry["catalog"])
+        tree.asset_data.catalog_id = presets.catalog_id(presets.catalog_path(p))
         tree.asset_data.tags.new("Lamella")
         if p.id in pixels:
             preview = tree.preview_ensure()
             preview.image_size = (PREVIEW, PREVIEW)
             preview.image_pixels_float.foreach_set(np.ascontiguousarray(pixels[p.id], dtype=np.float32).ravel())
-        entries.append(entry)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / LIBRARY_FILE
     bpy.data.libraries.write(str(path), set(trees), fake_user=True, compress=True)
     (out_dir / CATALOG_FILE).write_text(catalog_file())
-    manifest = {"blender": bpy.app.version_string, "file": LIBRARY_FILE, "presets": entries}
-    (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
-    (out_dir / README).write_text(node_groups_readme(manifest))
+    write_manifest(out_dir, bpy.app.version_string)
     return path
 
 
@@ -378,8 +437,11 @@ def node_groups_readme(manifest: dict) -> str:
         "",
         f"Generated by `lamella export-presets` (`{REGENERATE}`), saved by Blender {manifest['blender']} so that "
         "every Blender from 4.2 on opens it: regenerate rather than edit. `manifest.json` records what each "
-        "group was built from; `tests/unit/test_preset_exports.py` fails when a preset or the compiler "
-        "changed and this folder was not regenerated, and `tests/blender/test_preset_exports.py` appends "
+        f"group was built from (the digest of its structure) and `{NUMBERS}` the numbers it computed (its "
+        "tables' pixels, the shader's and the nodes' values); `tests/unit/test_preset_exports.py` fails when a "
+        "preset or the compiler changed and this folder was not regenerated (the structure compared exactly, "
+        f"the numbers within {golden.TOLERANCE}, so that another processor's last bits are not a change), "
+        "and `tests/blender/test_preset_exports.py` appends "
         "groups into a new file in a Blender that cannot import the extension and renders them in the three "
         "engine paths against the extension's own render.",
         "",
@@ -435,16 +497,9 @@ def write_node_groups(out_dir: Path = NODE_GROUPS_DIR, python: str | Path | None
     if r.returncode != 0:
         raise RuntimeError(f"building the node groups failed (exit {r.returncode}):\n{r.stdout[-3000:]}\n"
                            f"{r.stderr[-3000:]}")
-    # The manifest's digests are what this Python compiles (the one the staleness test runs in): the
-    # oldest Blender's numpy rounds a film's transcendental functions differently in the last bits,
-    # which the tables' pixels carry.
-    path = Path(out_dir) / MANIFEST
-    manifest = json.loads(path.read_text())
-    by_id = {p.id: p for p in _presets()}
-    for entry in manifest["presets"]:
-        entry.update(manifest_entry(by_id[entry["id"]]))
-    path.write_text(json.dumps(manifest, indent=2) + "\n")
-    (Path(out_dir) / README).write_text(node_groups_readme(manifest))
+    # The manifest's records and numbers are what this Python compiles (the one the staleness test
+    # runs in); the oldest Blender's numpy computes the last bits otherwise, which the tolerance covers.
+    write_manifest(out_dir, json.loads((Path(out_dir) / MANIFEST).read_text())["blender"])
     return Path(out_dir) / LIBRARY_FILE
 
 

@@ -2,11 +2,15 @@
 current presets and code make: a preset, the shader generator or the node-group compiler changed
 without ``make exports`` fails here, naming the presets. OSL only (a few seconds): the .blend is
 judged by its manifest, and compiled and rendered by tests/blender/test_preset_exports.py."""
+import functools
 import json
+import re
+
+import numpy as np
 
 from lamella.core import Stack, presets
 from lamella.core.backends.osl.emit import VIEW_TARGETS
-from lamella_dev import preset_exports as pe
+from lamella_dev import golden, preset_exports as pe
 
 
 def test_the_osl_folder_is_what_the_presets_export_now():
@@ -37,8 +41,136 @@ def test_a_changed_preset_is_named():
     assert entry == next(e for e in stored["presets"] if e["id"] == first.id)
     stack = first.load().to_dict()
     stack["base"]["roughness"] = 0.5
-    assert pe.stack_digest(Stack.from_dict(stack)) != entry["stack_sha256"]
-    assert pe.compile_digest(Stack.from_dict(stack)) != entry["compile_digest"]
+    changed = Stack.from_dict(stack)
+    assert pe.stack_digest(changed) != entry["stack_sha256"]
+
+    def compile_changed(s, inputs):
+        return pe.compiled(changed, inputs) if s.name == first.load().name else _cached(s, inputs)
+
+    changes = pe.node_group_changes(compile=compile_changed)
+    assert len(changes) == 1 and changes[0].startswith(f"{first.id}: ") and "image table:" in changes[0], changes
+
+
+# ---------------------------------------------------------------- goldens that hold on any processor
+@functools.cache
+def _compiled_now() -> dict:
+    """Every preset's ``compiled``, by its stack's name, computed once for the tests that alter it."""
+    return {p.load().name: pe.compiled(p.load(), p.inputs) for p in presets.builtin()}
+
+
+def _cached(stack, inputs) -> pe.Compiled:
+    return _compiled_now()[stack.name]
+
+
+def _nudged(built: pe.Compiled, ulps: int, seed: int) -> pe.Compiled:
+    """``built`` with every computed number moved by up to ``ulps`` float32 ulps."""
+    rng = np.random.default_rng(seed)
+    return pe.Compiled(built.structure, {part: golden.nudge(v, ulps, rng) for part, v in built.numbers.items()})
+
+
+def test_the_node_groups_stay_current_when_every_computed_float_moves_a_few_ulps():
+    """Another processor computes other last bits (numpy's SIMD kernels, BLAS, libm): every number
+    of every preset's compile moved by up to 4 float32 ulps (about 5e-7 relative, a thousand
+    float64 ulps) is no change; and the stored numbers are not bit-equal to the nudged ones, so the
+    check really ran on numbers that differ."""
+    seen = []
+
+    def compile_nudged(stack, inputs):
+        built = _nudged(_cached(stack, inputs), 4, len(seen))
+        seen.append(built)
+        return built
+
+    assert pe.node_group_changes(compile=compile_nudged) == []
+    with np.load(pe.NODE_GROUPS_DIR / pe.NUMBERS) as npz:
+        table = npz[pe.numbers_key(presets.builtin()[0].id, "image table")]
+    assert len(seen) == len(presets.builtin())
+    assert not np.array_equal(seen[0].numbers["image table"], table)
+
+
+# numpy's functions whose last bits depend on the processor (SIMD kernels and BLAS); sqrt and the
+# four operations are correctly rounded everywhere
+_PROCESSOR_DEPENDENT = ("exp", "expm1", "log", "log1p", "log2", "log10", "sin", "cos", "tan", "arcsin", "arccos",
+                        "arctan", "arctan2", "sinh", "cosh", "tanh", "power", "hypot", "cbrt", "dot", "matmul",
+                        "einsum", "sum", "mean")
+
+
+def test_the_node_groups_stay_current_when_numpys_kernels_round_otherwise(monkeypatch):
+    """The compile itself run as on another processor: every result of numpy's processor-dependent
+    functions (``_PROCESSOR_DEPENDENT``) moved by up to 4 ulps (``golden.processor_noise``: a function
+    of the value, whole numbers exact, as a real kernel), so the noise passes through
+    the whole compiler (the fitted EEVEE stand-ins, the staged tables, constant folding, the lobe
+    budget's merges) as it would: every preset is still current, none flips a branch."""
+    def noisy(f):
+        def g(*args, **kwargs):
+            out = f(*args, **kwargs)
+            return golden.processor_noise(out, 4) if isinstance(out, (np.ndarray, np.floating)) else out
+        return g
+
+    for name in _PROCESSOR_DEPENDENT:
+        monkeypatch.setattr(np, name, noisy(getattr(np, name)))
+    moved = []
+
+    def compile_noisy(stack, inputs):
+        built = pe.compiled(stack, inputs)
+        moved.append(built)
+        return built
+
+    assert pe.node_group_changes(compile=compile_noisy) == []
+    monkeypatch.undo()
+    clean = pe.compiled(presets.builtin()[2].load(), presets.builtin()[2].inputs)
+    assert any(not np.array_equal(moved[2].numbers[k], clean.numbers[k]) for k in clean.numbers), (
+        "the perturbation did not reach the compile")
+
+
+def test_a_real_change_to_the_compile_is_caught():
+    """What the tolerance lets through is float noise, not a change: a table's two columns swapped,
+    one pixel moved by 1e-4, a table of another layout (shape), a node more are each reported,
+    naming the preset and the part."""
+    target = presets.builtin()[1]
+
+    def compile_with(change):
+        def compile(stack, inputs):
+            built = _cached(stack, inputs)
+            return change(built) if stack.name == target.load().name else built
+        return compile
+
+    def swap_columns(b):
+        px = b.numbers["image table"].reshape(64, -1, 4).copy()
+        px[:, [0, 1]] = px[:, [1, 0]]
+        return pe.Compiled(b.structure, {**b.numbers, "image table": px.reshape(-1)})
+
+    def one_pixel(b):
+        px = b.numbers["image table"].copy()
+        px[int(np.argmax(px))] += np.float32(1e-4)
+        return pe.Compiled(b.structure, {**b.numbers, "image table": px})
+
+    def layout(b):
+        return pe.Compiled(golden.digest(b.structure, "a table of another shape"), b.numbers)
+
+    def node_more(b):
+        return pe.Compiled(b.structure, {**b.numbers, "nodes": np.append(b.numbers["nodes"], 0.5)})
+
+    for change, says in ((swap_columns, "image table: "), (one_pixel, "image table: 1 of"),
+                         (layout, "structure_digest changed"), (node_more, "nodes: ")):
+        changes = pe.node_group_changes(compile=compile_with(change))
+        assert len(changes) == 1 and changes[0].startswith(f"{target.id}: ") and says in changes[0], (change, changes)
+
+
+def test_the_osl_folder_stays_current_when_its_printed_floats_move(tmp_path):
+    """``osl/`` regenerated with every float literal of every shader and README moved by up to 4
+    float32 ulps (printed again) is current; one literal moved by 1e-3 of its value is not."""
+    pe.write_osl(tmp_path)
+    rng = np.random.default_rng(3)
+    texts = sorted(p for p in tmp_path.rglob("*") if p.suffix in pe.TEXT_SUFFIXES)
+    for p in texts:
+        p.write_text(golden.nudge_text(p.read_text(), 4, rng))
+    assert pe.tree_changes(tmp_path, pe.OSL_DIR) == []
+    shader = tmp_path / "cycles" / "lacquered_gold" / "lamella_lacquered_gold.osl"
+    text = shader.read_text()
+    literal = re.search(r"float MT\[\d+\] = \{([^,]+),", text).group(1)
+    shader.write_text(text.replace(literal, repr(float(literal) * 1.001), 1))
+    changes = pe.tree_changes(tmp_path, pe.OSL_DIR)
+    assert len(changes) == 1 and changes[0].startswith("lacquered_gold (cycles): lamella_lacquered_gold.osl changed (1 of")
 
 
 def test_the_catalogs_are_the_material_librarys():
