@@ -20,7 +20,9 @@ every float that way (``backends.osl.emit._literal``), so an integer-looking tok
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import numbers
@@ -164,3 +166,32 @@ def processor_noise(values, ulps: int):
         out = np.where(steps <= -k, np.nextafter(out, v.dtype.type(-np.inf)), out)
     out = np.where(np.isfinite(v) & (v == np.round(v)), v, out)
     return out if isinstance(values, np.ndarray) else v.dtype.type(out[()])
+
+
+# numpy's functions whose last bits depend on the processor (SIMD kernels, BLAS, reductions over
+# SIMD lanes); sqrt and the four operations are correctly rounded everywhere
+PROCESSOR_DEPENDENT = ("exp", "expm1", "log", "log1p", "log2", "log10", "sin", "cos", "tan", "arcsin", "arccos",
+                       "arctan", "arctan2", "sinh", "cosh", "tanh", "power", "hypot", "cbrt", "dot", "matmul",
+                       "einsum", "sum", "mean")
+
+
+@contextlib.contextmanager
+def numpy_of_another_processor(ulps: int = 4):
+    """Within the block, numpy's ``PROCESSOR_DEPENDENT`` functions (called as ``np.<name>``) return
+    their results moved by ``processor_noise``: code run inside computes as it might on another
+    processor. numpy's own attributes are restored on leaving."""
+    def noisy(f):
+        @functools.wraps(f)
+        def g(*args, **kwargs):
+            out = f(*args, **kwargs)
+            return processor_noise(out, ulps) if isinstance(out, (np.ndarray, np.floating)) else out
+        return g
+
+    saved = {name: getattr(np, name) for name in PROCESSOR_DEPENDENT}
+    try:
+        for name, f in saved.items():
+            setattr(np, name, noisy(f))
+        yield
+    finally:
+        for name, f in saved.items():
+            setattr(np, name, f)

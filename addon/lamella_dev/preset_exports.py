@@ -51,7 +51,7 @@ MANIFEST = "manifest.json"
 NUMBERS = "compiled_numbers.npz"  # the computed numbers of what each group was built from (``compiled``)
 OLDEST_BPY = "4.2.23"  # the bpy wheel of blender_manifest.toml's blender_version_min (make test-blender-versions)
 REGENERATE = "make exports"
-# Bumped when the way a group is made from what ``compile_digest`` covers changes (the face's
+# Bumped when the way a group is made from what ``compiled`` covers changes (the face's
 # wiring, the node group's building, what the export strips): the manifest then reads as stale.
 EXPORT_LAYOUT = 2
 PREVIEW = 128  # pixels
