@@ -1,6 +1,6 @@
 """The figures README.md and docs/*.md quote, checked against the bench pages they cite.
 
-A bench page (``bench/NAME.md``) is written by the bench that measures it (``lamella bench NAME``);
+A bench page (``bench/live_osl.md``, say) is written by the bench that measures it (``lamella bench live-osl``);
 a page of prose that quotes one of its figures goes stale at the next measurement unless something
 compares the two. ``stale_figures`` does: in every block of a page (a paragraph, a list item, a
 table row, a heading) that cites a bench page, every number of the prose (code spans and fenced

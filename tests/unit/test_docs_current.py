@@ -68,7 +68,7 @@ def test_a_stale_figure_is_reported_with_its_file_line_and_page(tmp_path):
 def test_the_figure_check_reads_rounding_and_leaves_out_what_is_not_a_figure(tmp_path):
     page = (BENCH / "live_osl.md").read_text(encoding="utf-8")
     assert "| 2310 |" in page and "| 2.52x |" in page and "| 0.0013 |" in page and "1.49x" in page
-    doc = _tree_with(tmp_path, "docs/page.md", "\n\n".join([
+    doc = _tree_with(tmp_path, "docs/models.md", "\n\n".join([
         "Held: 2310 kB, 2.5x and 2.52x, 0.001, 1.5 (`bench/live_osl.md`).",  # as printed, or rounded from it
         "Stale: 2.53x and 2311 (`bench/live_osl.md`).",  # neither is a printed figure rounded
         "Not figures: Belcour 2018, Heitz et al. 2016, Blender 4.2, MaterialX 1.39, bpy 5.2.3, Eq. 21, "
@@ -79,8 +79,8 @@ def test_the_figure_check_reads_rounding_and_leaves_out_what_is_not_a_figure(tmp
         "```\n98765 (`bench/live_osl.md`)\n```",
     ]) + "\n")
     stale = doc_figures.stale_figures(doc, tmp_path / "bench", tmp_path, doc_figures.source_constants(ROOT / "addon"))
-    assert [(s.where, s.figure) for s in stale] == [("docs/page.md:3", "2.53"), ("docs/page.md:3", "2311"),
-                                                      ("docs/page.md:7", "0.7")]
+    assert [(s.where, s.figure) for s in stale] == [("docs/models.md:3", "2.53"), ("docs/models.md:3", "2311"),
+                                                      ("docs/models.md:7", "0.7")]
 
 
 # ---------------------------------------------------------------- commands

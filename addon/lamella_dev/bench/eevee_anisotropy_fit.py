@@ -258,7 +258,7 @@ def run(out_dir: Path = BENCH_DIR, cases=None, rebuild: bool = False) -> Path:
 def _arguments(parser):
     from .registry import cases_argument
 
-    cases_argument(parser)
+    cases_argument(parser, anisotropic_cases, "anisotropic suite case")
     parser.add_argument("--rebuild", action="store_true",
                         help="rebuild the fit tables (lamella/data/luts/isotropic_fit.npz) first (about 10 minutes)")
 

@@ -169,4 +169,5 @@ def run(out_dir: Path = BENCH_DIR, cases=None, progress: bool = True) -> Path:
 BENCH = register(Bench("eevee-anisotropy-images",
                        "the anisotropic suite stacks in EEVEE (tilted isotropic stand-ins, and round) against Cycles, "
                        "beside the Principled BSDF's anisotropy",
-                       lambda out_dir, args: run(out_dir, cases=args.cases or None), cases_argument))
+                       lambda out_dir, args: run(out_dir, cases=args.cases or None),
+                       lambda parser: cases_argument(parser, anisotropic_cases, "anisotropic suite case")))

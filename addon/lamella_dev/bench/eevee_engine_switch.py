@@ -377,7 +377,9 @@ def run(out_dir: Path = BENCH_DIR, also=()) -> Path:
 
 
 def _arguments(parser):
-    parser.add_argument("--also", action="append", default=[],
+    from ..arguments import program
+
+    parser.add_argument("--also", type=program("a Python with bpy"), action="append", default=[],
                         help="another Python with bpy (e.g. the 4.2 wheel's) to run the probe in too")
 
 

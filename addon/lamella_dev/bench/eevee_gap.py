@@ -230,4 +230,5 @@ def format_markdown(data: dict) -> str:
 
 BENCH = register(Bench("eevee-gap",
                        "EEVEE against Cycles per isotropic suite stack, with controls that tell whose the gap is",
-                       lambda out_dir, args: run(out_dir, cases=args.cases or None), cases_argument))
+                       lambda out_dir, args: run(out_dir, cases=args.cases or None),
+                       lambda parser: cases_argument(parser, isotropic_cases, "isotropic suite case")))

@@ -187,26 +187,25 @@ def _markdown(refs: dict, rows: list[dict], models) -> str:
 
 
 def _arguments(parser) -> None:
+    from ..arguments import count, names
+
     parser.add_argument("--references", action="store_true",
                         help="draw the hold-out stacks and compute their energy-conserving references first "
                              "(about 30 minutes of CPU)")
-    parser.add_argument("--cases", help="with --references: only these stacks (comma-separated names)")
-    parser.add_argument("--spp", type=int, default=SPP, help=f"with --references: walkers per direction "
-                                                             f"(default {SPP})")
+    parser.add_argument("--cases", type=names("hold-out stack", lambda: list(draw())),
+                        help="with --references: only these stacks (comma-separated names)")
+    parser.add_argument("--spp", type=count(), default=SPP, help=f"with --references: walkers per direction "
+                                                                f"(default {SPP})")
 
 
 def _bench(out_dir: Path, args) -> Path:
     if args.references:
         stacks = draw()
         if args.cases:
-            names = args.cases.split(",")
-            unknown = [n for n in names if n not in stacks]
-            if unknown:
-                raise SystemExit(f"no hold-out stack {', '.join(unknown)} (stacks: {', '.join(stacks)})")
-            stacks = {n: stacks[n] for n in names}
+            stacks = {n: stacks[n] for n in args.cases}
         compute_references(stacks, spp=args.spp,
                            command="lamella bench holdout --references"
-                                   + (f" --cases {args.cases}" if args.cases else "")
+                                   + (f" --cases {','.join(args.cases)}" if args.cases else "")
                                    + (f" --spp {args.spp}" if args.spp != SPP else ""))
     return run(out_dir=out_dir)[0]
 

@@ -16,6 +16,7 @@ import numpy as np
 from .. import suite
 from lamella.core.exr import read_rgba
 from ..image_metrics import delta_e00_map, display_srgb, image_errors
+from ..arguments import count
 from ..plots import save_figure
 from .paths import BENCH_DIR
 from .image_references import IMAGE_REFERENCE_DIR, RES, load_index, sphere_mask
@@ -234,7 +235,7 @@ def _arguments(parser) -> None:
     parser.add_argument("--interfaces", choices=["single", "multiple"], default="single",
                         help="against the single-scattering references (bench/images.md) or the energy-conserving "
                              "ones (tests/references/images_multiple, bench/images_multiple.md)")
-    parser.add_argument("--converged-spp", type=int, default=CONVERGED_SPP,
+    parser.add_argument("--converged-spp", type=count(lo=0), default=CONVERGED_SPP,
                         help="samples of the noise control's second OSL render (0: leave it out)")
 
 

@@ -64,7 +64,16 @@ def unregister(bench_or_name: Bench | str) -> None:
     BENCHES.unregister(bench_or_name)
 
 
-def cases_argument(parser: argparse.ArgumentParser) -> None:
-    """``--cases a,b,c``: the suite cases to run (``args.cases``: a list, None for the default)."""
-    parser.add_argument("--cases", type=lambda text: [c for c in text.split(",") if c],
-                        help="comma-separated suite cases (default: all)")
+def cases_argument(parser: argparse.ArgumentParser, choices: Callable[[], list[str]] | None = None,
+                   what: str = "suite case") -> None:
+    """``--cases a,b,c``: the cases to run (``args.cases``: a list, None for the default), each one
+    of ``choices()`` (default: the suite's cases), checked as the command line is parsed."""
+    from ..arguments import names
+
+    def suite_cases() -> list[str]:
+        from .. import suite
+
+        return suite.names()
+
+    parser.add_argument("--cases", type=names(what, choices or suite_cases),
+                        help=f"comma-separated {what}s (default: all)")

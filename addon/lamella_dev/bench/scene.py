@@ -221,7 +221,7 @@ def format_markdown(d: dict) -> str:
 
 
 def _arguments(parser) -> None:
-    parser.add_argument("--count", type=count("--count"), default=COUNT,
+    parser.add_argument("--count", type=count(), default=COUNT,
                         help=f"how many objects and materials (default {COUNT})")
 
 
