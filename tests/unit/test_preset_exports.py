@@ -1,12 +1,18 @@
 """The generated folders ``osl/`` and ``node_groups/`` (``lamella_dev.preset_exports``) are what the
 current presets and code make: a preset, the shader generator or the node-group compiler changed
-without ``make exports`` fails here, naming the presets. OSL only (a few seconds): the .blend is
+without ``make exports`` fails here, naming the presets, on any processor: the structure compares
+exactly, the computed numbers within ``golden.TOLERANCE`` (float noise made on purpose, and real
+older processors' kernels, pass; real changes do not). OSL only (a few seconds): the .blend is
 judged by its manifest, and compiled and rendered by tests/blender/test_preset_exports.py."""
 import functools
 import json
+import os
 import re
+import subprocess
+import sys
 
 import numpy as np
+import pytest
 
 from lamella.core import Stack, presets
 from lamella.core.backends.osl.emit import VIEW_TARGETS
@@ -174,3 +180,46 @@ def test_the_node_groups_readme_is_the_manifests():
     manifest = json.loads((pe.NODE_GROUPS_DIR / pe.MANIFEST).read_text())
     assert (pe.NODE_GROUPS_DIR / pe.README).read_text() == pe.node_groups_readme(manifest), (
         f"node_groups/README.md is stale: run `{pe.REGENERATE}`")
+
+
+# ---------------------------------------------------------------- on other processors, for real
+# numpy picks its SIMD kernels at start-up from what the processor has, unless told to leave some
+# out (NPY_DISABLE_CPU_FEATURES); OpenBLAS its kernel (OPENBLAS_CORETYPE); glibc its libm variant
+# (GLIBC_TUNABLES): set so, this processor computes as an older one does.
+_PROBE = ("import hashlib, numpy as np; x = np.linspace(0.01, 3.0, 4099); a = np.cos(np.outer(x[:200], x[:200]));"
+          "print(hashlib.sha256(np.concatenate([np.exp(x), np.log(x), np.sin(x), np.arctan(x), (a @ a).ravel()])"
+          ".tobytes()).hexdigest()[:16])")
+_CHECK = ("import json; from lamella_dev import preset_exports as pe;"
+          "print(json.dumps([pe.node_group_changes(), pe.osl_changes()]))")
+
+
+def _older_processor(kind: str) -> dict:
+    from numpy._core import _multiarray_umath as umath  # numpy 2: the running kernels' features
+
+    present = [f for f in umath.__cpu_dispatch__ if umath.__cpu_features__.get(f)]
+    left_out = [f for f in present if f.startswith("AVX512")] if kind == "avx2" else present
+    env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=" ".join(left_out),
+               OPENBLAS_CORETYPE="Haswell" if kind == "avx2" else "Nehalem")
+    if kind == "sse3":
+        env["GLIBC_TUNABLES"] = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F,-AVX"
+    return env
+
+
+def _python(code: str, env: dict) -> str:
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return r.stdout.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("kind", ["avx2", "sse3"])
+def test_the_generated_folders_are_current_on_an_older_processor(kind):
+    """The staleness checks run in a Python whose numpy kernels, BLAS kernel and libm are an AVX2
+    (or an SSE3) machine's: osl/ and node_groups/ are current there too. Where this processor
+    has AVX-512 the older kernels compute other last bits (the probe), so the check ran on
+    numbers that differ."""
+    from numpy._core import _multiarray_umath as umath
+
+    env = _older_processor(kind)
+    assert json.loads(_python(_CHECK, env)) == [[], []]
+    if kind == "sse3" and umath.__cpu_features__.get("AVX512F"):
+        assert _python(_PROBE, env) != _python(_PROBE, dict(os.environ)), "the older kernels computed the same bits"

@@ -147,7 +147,7 @@ def test_the_gaussian_fit_against_the_exact_transform_of_the_colour_matching_fun
     fit = np.stack([re + 1j * im for re, im in tf.sensitivity(NumpyOps(), opd)], -1)
     err = np.abs(fit - exact)
     assert err[opd <= 300].max() < 0.0031  # measured 0.00305
-    assert np.round(err.max(0), 3).tolist() == [0.017, 0.014, 0.008]
+    np.testing.assert_allclose(err.max(0), [0.017, 0.014, 0.008], atol=5e-4)  # measured 0.01708 / 0.01408 / 0.00772
     assert err[opd >= 30000].max() < 2e-4  # measured 1.8e-4
 
 

@@ -45,7 +45,8 @@ def _roughness(rng, smooth_p: float, aniso_p: float) -> tuple[list[float], float
     of smooth layers and of brushed (anisotropic, rotated) ones."""
     if rng.random() < smooth_p:
         return [0.0, 0.0], 0.0
-    a = float(rng.uniform(0.15, 0.65)) ** 2
+    r = float(rng.uniform(0.15, 0.65))
+    a = r * r  # correctly rounded on every processor (libm's pow is not: the draw is a stored golden)
     if rng.random() < aniso_p:
         return [a, a * float(rng.uniform(0.15, 0.8))], float(rng.uniform(0.0, math.pi))
     return [a, a], 0.0
