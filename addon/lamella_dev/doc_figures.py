@@ -15,6 +15,11 @@ an equation, section or figure number (Eq. 21). Settings a sentence states as in
 constant is quoted with its name: a number equal to a module-level constant that the block names
 in a code span (0.5 s, `recompile.DRAG_WINDOW`; `SVM_UNSURE` (150)) is that constant's value, read
 from the source, so it is checked too.
+
+A block that cites no page may still quote a measured figure (a time, a ratio, a percentage, a
+size, an error, a test count: ``UNIT_FIGURE``): it must be a number some bench page prints
+(``unheld_unit_figures``), unless it is one of the ``DESIGN_CONSTANTS`` (a bound chosen, not
+measured, checked to be set where it says).
 """
 from __future__ import annotations
 
@@ -157,4 +162,61 @@ def stale_figures(doc: Path, bench_dir: Path, root: Path,
                 if not held(m.group(0), printed):
                     found.append(StaleFigure(f"{doc.relative_to(root)}:{number}", m.group(0),
                                              tuple(str(p.relative_to(root)) for p in pages)))
+    return found
+
+
+# ---------------------------------------------------------------- figures in a block citing no page
+# A measured figure (a time, a ratio, a percentage, a size, an error: delta-E, RMSE, FLIP, relative
+# L1, or a test count) is written by the bench that measures it. A block that quotes one without
+# citing its page must still quote a number some bench page holds: by number, not by meaning (a
+# small number is on most pages by chance; a figure of a few digits, the kind that goes stale, is
+# held or reported).
+_NUM = r"\d+(?:,\d{3})*(?:\.\d+)?(?:e[-−]?\d+)?"
+_LIST = rf"{_NUM}(?:(?:\s?[-–]\s?|,\s|,?\s(?:and|or|to|against)\s|\s/\s){_NUM})*"
+_UNIT = r"(?:x|×|%|kB|MB|GB|KiB|bytes|ms|s|seconds?|min|minutes?|hours?)"
+UNIT_FIGURE = re.compile(
+    rf"(?P<a>{_LIST})\s?{_UNIT}(?![\w/])(?!\s*\d)"  # 2.58x, 0.41 %, 14-16 ms, 274.5 kB, 856 s
+    rf"|(?P<b>{_NUM})\s(?:passed|skipped|failed|xfailed|errors?|expected failures?)\b"  # test counts
+    rf"|(?:ΔE00|ΔE|RMSE|FLIP|relative L1|\|bias\|)(?!\w)\)?[\s:=(]{{0,3}}(?:of\s|is\s|at best\s)?(?P<c>{_LIST})(?![\w.])"
+    rf"|(?P<d>{_LIST})\s(?:relative L1|ΔE00|RMSE|FLIP)\b")
+# Figures written with a unit that are design constants or a test's bound, chosen and not
+# measured, which no bench page needs to hold: {figure as written: (the file that sets it, the text
+# that sets it there)}. ``design_constants_moved`` checks each is still set so.
+DESIGN_CONSTANTS = {
+    "0.5 s": ("addon/lamella/blender/recompile.py", "DRAG_WINDOW = 0.5"),  # an edit this soon continues a drag
+    "0.3 s": ("addon/lamella/blender/recompile.py", "SETTLE_DELAY = 0.3"),  # quiet before a drag settles
+    "2.5 %": ("tests/unit/test_models.py", "0.025 * walk[0]"),  # bare rough metals against the walk
+    "1 %": ("addon/lamella/core/backends/ir/lobe_budget.py", "AUTO_TOLERANCE = 0.01"),  # the automatic budget
+    "0.5 %": ("tests/unit/test_staging.py", "worst < 0.005"),  # the staged shader against the traced model
+    "10 %": ("tests/unit/test_accuracy.py", "1.1 * best"),  # `auto` against the best model
+    "2 %": ("tests/unit/test_trapped_light.py", "(0.0, 0.02)"),  # trapped light at normal incidence
+    "8 %": ("tests/unit/test_trapped_light.py", "(60.0, 0.08)"),  # and at 60 degrees
+    "0.2 %": ("tests/blender/test_osl_exactness.py", "np.median(rel) < 0.002"),  # OSL against numpy per pixel
+    "64 KiB": ("tools/eevee_uniform_block.py", "EEVEE's 64 KiB uniform block"),  # Blender's limit
+}
+
+
+def design_constants_moved(root: Path) -> list[str]:
+    """The ``DESIGN_CONSTANTS`` no longer set where they say."""
+    return [f"{figure}: {text!r} is not in {source}" for figure, (source, text) in DESIGN_CONSTANTS.items()
+            if text not in (root / source).read_text(encoding="utf-8")]
+
+
+def unheld_unit_figures(doc: Path, bench_dir: Path, root: Path) -> list[StaleFigure]:
+    """Every measured figure (``UNIT_FIGURE``) in a block of ``doc`` that cites no bench page which
+    no bench page prints (the blocks citing a page: ``stale_figures``)."""
+    everywhere = set().union(*(page_numbers(p.read_text(encoding="utf-8")) for p in sorted(bench_dir.glob("*.md"))))
+    found = []
+    for block in blocks(doc.read_text(encoding="utf-8")):
+        if cited_pages(block, bench_dir):
+            continue
+        text = re.sub(r"`[^`]*`", lambda m: re.sub(r"[^\n]", " ", m.group(0)), "\n".join(line for _, line in block),
+                      flags=re.S)
+        for (number, _), line in zip(block, text.split("\n")):
+            for m in UNIT_FIGURE.finditer(line):
+                figure = m.group(0).strip()
+                values = re.findall(_NUM, next(g for g in m.groups() if g))
+                if figure not in DESIGN_CONSTANTS and not all(
+                        _value(v.replace("−", "-")) in everywhere for v in values):
+                    found.append(StaleFigure(f"{doc.relative_to(root)}:{number}", figure, ("any bench page",)))
     return found

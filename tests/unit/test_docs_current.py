@@ -83,6 +83,32 @@ def test_the_figure_check_reads_rounding_and_leaves_out_what_is_not_a_figure(tmp
                                                       ("docs/models.md:7", "0.7")]
 
 
+def test_a_measured_figure_in_a_block_citing_no_page_is_on_some_bench_page():
+    stale = [str(s) for doc in _quoting_pages() for s in doc_figures.unheld_unit_figures(doc, BENCH, ROOT)]
+    assert not stale, ("measured figures no bench page holds (link the bench page instead of the number):\n"
+                       + "\n".join(stale))
+    assert doc_figures.design_constants_moved(ROOT) == []
+
+
+def test_a_measured_figure_no_page_holds_is_reported(tmp_path):
+    doc = _tree_with(tmp_path, "docs/models.md", "The suite alone: 98765.4 s, 123457 passed; a drag window of 0.5 s.\n\n"
+                     "Held somewhere: 4608 nodes, 2.52x.\n")
+    stale = doc_figures.unheld_unit_figures(doc, tmp_path / "bench", tmp_path)
+    assert [(s.where, s.figure) for s in stale] == [("docs/models.md:1", "98765.4 s"), ("docs/models.md:1", "123457 passed")]
+
+
+def test_the_measured_figure_pattern_catches_what_it_is_for():
+    found = {m.group(0).strip() for m in doc_figures.UNIT_FIGURE.finditer(
+        "the suite alone: 856 s, 1521 passed, 52 skipped; 2.58x Principled; 14-16 ms and 28, 49 and 117 ms; "
+        "ΔE00 1.3–2.5 against 2.7–19; relative L1 of 0.072, 0.098; 0.43 % relative L1; 274.5 kB; ~50 min")}
+    for figure in ("856 s", "1521 passed", "52 skipped", "2.58x", "14-16 ms", "28, 49 and 117 ms",
+                   "ΔE00 1.3–2.5 against 2.7–19", "relative L1 of 0.072, 0.098", "0.43 %", "274.5 kB", "50 min"):
+        assert any(figure in f for f in found), (figure, found)
+    for text in ("a 2x2 covariance", "480 x 270", "64 x 1 x 9", "Blender 4.2", "Eqs. 37-38", "128 px, 64 spp",
+                 "8 coats", "4 samples", "ops.<name>", "CIEDE2000 (ΔE00) after"):
+        assert not doc_figures.UNIT_FIGURE.search(text), text
+
+
 # ---------------------------------------------------------------- commands
 # A placeholder the pages write for a value, and the real value a command gets for it: by the
 # option it follows (or the subcommand, for a positional), else by itself. An output goes into the
