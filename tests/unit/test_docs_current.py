@@ -1,7 +1,8 @@
 """The pages say what the code and the bench pages say today.
 
 - Figures: every number README.md and docs/*.md quote in a paragraph, list item or table row
-  that cites a bench page is one that page prints (``lamella_dev.doc_figures``).
+  that cites a bench page is one that page prints, and every measured figure (a time, a ratio, an
+  error, a test count) in one that cites none is on some bench page (``lamella_dev.doc_figures``).
 - Commands: every ``lamella ...`` command the pages show (fenced blocks and inline code) parses
   with the command's own parser, placeholders (STACK.json, DIR, N, ...) replaced by real values;
   the cheap ones (no render, no reference walk, no bpy) run; every ``make TARGET`` shown is a
