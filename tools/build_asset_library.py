@@ -47,7 +47,7 @@ def build(out_dir: Path) -> Path:
         mat.use_nodes = True
         mat.node_tree.nodes.clear()
         with recompile.suspended():  # the stack only: compiled where it is used
-            write_stack(mat.lamella, preset.load())
+            write_stack(mat.lamella, preset.load(), preset.layer_labels)
             mat.lamella.enabled = True
         # the preset's procedural inputs (a wear mask, ...): linked into the Lamella node its first
         # compile builds (``input_recipes.link_pending``)

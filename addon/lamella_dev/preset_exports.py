@@ -52,8 +52,9 @@ NUMBERS = "compiled_numbers.npz"  # the computed numbers of what each group was 
 OLDEST_BPY = "4.2.23"  # the bpy wheel of blender_manifest.toml's blender_version_min (make test-blender-versions)
 REGENERATE = "make exports"
 # Bumped when the way a group is made from what ``compiled`` covers changes (the face's
-# wiring, the node group's building, what the export strips): the manifest then reads as stale.
-EXPORT_LAYOUT = 2
+# wiring, its inputs' types and tooltips, the node group's building, what the export strips): the
+# manifest then reads as stale.
+EXPORT_LAYOUT = 3
 PREVIEW = 128  # pixels
 PREVIEW_SPP = 32
 
@@ -255,6 +256,7 @@ def manifest_entry(preset, built: Compiled | None = None) -> dict:
         "id": preset.id,
         "label": preset.label,
         "description": preset.description,
+        "layer_labels": list(preset.layer_labels),  # its coats' labels: its inputs' names on the node
         "group": group_name(preset),
         "catalog": presets.catalog_path(preset),
         "model": resolve("auto", stack).name,

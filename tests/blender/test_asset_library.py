@@ -50,6 +50,7 @@ def test_the_library_holds_every_preset_as_an_asset_of_its_stack(addon):
         assert m.asset_data.catalog_id in catalog_ids, p.id
         assert tuple(m.preview.image_size) == (128, 128) and max(m.preview.image_pixels_float[:]) > 0.1, p.id
         assert api.read_stack(m) == _stored(addon, p.load()), p.id
+        assert tuple(c.name for c in m.lamella.coats) == p.layer_labels, p.id  # the preset's labels
 
 
 def test_the_library_opens_in_the_oldest_blender_the_extension_supports():

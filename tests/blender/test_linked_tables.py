@@ -48,7 +48,7 @@ def _link_textures_into(mat, sockets, nodes):
     nt.links.new(coords.outputs["Object"], checker.inputs["Vector"])
     for node in nodes:
         for name in sockets:
-            src = checker.outputs["Color"] if node.inputs[name].type == "RGBA" else span.outputs["Result"]
+            src = checker.outputs["Color"] if node.inputs[name].type in ("RGBA", "VECTOR") else span.outputs["Result"]
             nt.links.new(src, node.inputs[name])
 
 

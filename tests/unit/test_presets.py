@@ -21,7 +21,21 @@ def test_an_input_that_names_no_socket_of_the_stack_is_refused():
     p = presets.find("worn_lacquer_on_wood")
     for socket, why in (("coat3_coverage", "names no layer"), ("coat0_albedo", "has no field"),
                         ("base_coverage", "has no field")):
-        bad = presets.Preset(p.id, p.label, p.description, p.path, True, ((socket, "worn"),))
+        bad = presets.Preset(p.id, p.label, p.description, p.path, True, ((socket, "worn"),), p.layer_labels)
+        with pytest.raises(StackError, match=why):
+            presets.check_inputs(bad)
+
+
+def test_every_built_in_preset_labels_each_coat_once():
+    """The panel and the Lamella node call a preset's coats what they are ("Clear Coat", "Red
+    Paint"), each by a label of its own; a preset that labels too few coats, or two alike, is
+    refused."""
+    labels = {p.id: p.layer_labels for p in presets.builtin()}
+    assert labels["car_paint"] == ("Clear Coat", "Red Paint")
+    p = presets.find("dust_on_upward_faces")
+    for wrong, why in ((("Dust",), "1 layer labels for 2 coats"), (("Dust", "Dust"), "must differ"),
+                       (("Dust", "Base"), "must differ")):
+        bad = presets.Preset(p.id, p.label, p.description, p.path, True, p.inputs, wrong)
         with pytest.raises(StackError, match=why):
             presets.check_inputs(bad)
 

@@ -11,15 +11,18 @@ import json
 import time
 
 from ..core import presets
+from ..core.backends.ir.staging import NotAnInput
 from ..core.stack import Stack, StackError
-from . import input_recipes, material_nodes, paths, recompile
+from . import input_recipes, material_nodes, paths, recompile, socket_edits
 from .stack_props import stack_dict, write_stack
 
 
-def apply_stack(material, stack, model: str | None = None):
+def apply_stack(material, stack, model: str | None = None, labels=None):
     """Make ``material`` a Lamella material showing ``stack`` (a Stack, dict or JSON text),
     optionally forcing ``model`` (default: the material's model setting, "auto" for a new one).
-    Builds or updates its nodes; returns the material."""
+    The coat at each position keeps its label unless ``labels`` names the coats (top to bottom;
+    a coat without one, or a new coat, is named by what it is). Builds or updates its nodes;
+    returns the material."""
     t0 = time.perf_counter()
     stack = Stack.coerce(stack)
     if material.library is not None:
@@ -29,10 +32,13 @@ def apply_stack(material, stack, model: str | None = None):
     if model is None:
         model = settings.model if settings.enabled else "auto"
     # parameters whose sockets are linked (a texture) stay live; the rest is baked
-    built = recompile.build_shader(stack, model, material_nodes.linked_sockets(material),
-                                   material.lamella.lobe_budget)  # raises before anything changes
+    try:
+        built = recompile.build_shader(stack, model, material_nodes.linked_sockets(material),
+                                       material.lamella.lobe_budget)  # raises before anything changes
+    except NotAnInput as e:  # a texture linked into a layer or field the new stack lacks
+        raise StackError("stack", None, material_nodes.not_an_input_message(material, e.names)) from None
     with recompile.suspended():
-        write_stack(settings, stack)
+        write_stack(settings, stack, labels)
         settings.model = model
         settings.enabled = True
     recompile.install(material, stack, built, t0)
@@ -45,7 +51,7 @@ def apply_preset(material, preset_id: str):
     preset's (``input_recipes``: a wear mask in a coat's coverage, ...), linked into the Lamella
     node; the artist's own nodes stay. Returns the material."""
     preset = presets.find(preset_id, paths.user_presets_dir())
-    apply_stack(material, preset.load())
+    apply_stack(material, preset.load(), labels=preset.layer_labels)
     removed = input_recipes.remove(material)
     if preset.inputs:
         input_recipes.add(material, preset.inputs)
@@ -57,10 +63,12 @@ def apply_preset(material, preset_id: str):
 
 def read_stack(material) -> dict | None:
     """The stack ``material`` renders (muted layers left out) as a dict, or None for a material
-    Lamella does not build."""
+    Lamella does not build. A value typed on its Lamella node since the last compile is the
+    stack's (it schedules that compile)."""
     settings = getattr(material, "lamella", None)
     if settings is None or not settings.enabled:
         return None
+    socket_edits.take(material)  # a value typed on the Lamella node is the panel's
     d = stack_dict(settings)
     try:
         return Stack.from_dict(d).to_dict()

@@ -93,30 +93,74 @@ def draw(layout, pg):
     return None
 
 
+def _measured_metal(eta, k) -> str | None:
+    """The measured metal whose complex index ``eta``, ``k`` is (as float32 stores it), or None."""
+    def same(a, b):
+        return all(abs(x - y) <= 1e-6 * max(abs(y), 1.0) for x, y in zip(a, b))
+
+    return next((key for key, m in metals.measured().items() if same(eta, m["eta"]) and same(k, m["k"])), None)
+
+
 def written(pg) -> None:
-    """A stack written into the panel holds eta and k as given: the Custom mode shows them."""
-    pg.mode = "CUSTOM"
+    """A stack written into the panel holds eta and k as given: a measured metal's shows as that
+    metal (the Measured mode, whose node shows its reflectivity and edge tint), any other in the
+    Custom mode."""
+    key = _measured_metal(pg.eta, pg.k)
+    if key is None:
+        pg.mode = "CUSTOM"
+        return
+    eta, k = tuple(pg.eta), tuple(pg.k)
+    pg.metal = key
+    pg.mode = "MEASURED"  # writes the measurement: the same numbers, put back exactly as given
+    _write_conductor(pg, eta, k)
+
+
+def _artist_colours(pg) -> tuple:
+    """The reflectivity and edge tint the node shows: the artist mode's own, else the metal's
+    (a measured metal's eta and k in Gulbrandsen 2014's terms)."""
+    if pg.mode == "ARTIST":
+        return tuple(pg.reflectivity), tuple(pg.edge_tint)
+    r, g = metals.complex_to_artistic(pg.eta, pg.k)
+    return tuple(float(x) for x in r), tuple(float(x) for x in g)
 
 
 def face_inputs(pg, inputs: list, uid: str, label: str) -> list:
-    """In the artist mode the Lamella node shows the reflectivity and edge tint, and makes eta and
-    k from them inside (``gulbrandsen_nodes``), so a texture on the colours drives the metal."""
-    if pg.mode != "ARTIST":
+    """A measured metal and the artist mode show the reflectivity and edge tint on the Lamella
+    node (the measured metal's in Gulbrandsen 2014's terms), made into eta and k inside it
+    (``gulbrandsen_nodes``), so a texture on the colours drives the metal; unlinked, the metal's own
+    eta and k render. The Custom mode shows eta and k themselves."""
+    if pg.mode == "CUSTOM":
         return inputs
     out = []
     k_model = next(i.model for i in inputs if i.field == "k")
+    reflectivity, edge_tint = _artist_colours(pg)
     for i in inputs:
         if i.field == "eta":
             keys = (f"{uid}/reflectivity", f"{uid}/edge_tint")
             derived = () if i.model is None else (
                 ((i.model, k_model), keys, lambda nt, s: gulbrandsen_nodes(nt, *s)),)
             out.append(FaceInput(keys[0], f"{label}: Reflectivity", "NodeSocketColor", "NONE",
-                                 tuple(pg.reflectivity), 0.0, 1.0, None, derived, field="reflectivity"))
+                                 reflectivity, 0.0, 1.0, None, derived, field="reflectivity",
+                                 description="Colour of the metal at normal incidence (Gulbrandsen 2014), made "
+                                             "into its complex index inside the node. Accepted: [0, 1]"))
             out.append(FaceInput(keys[1], f"{label}: Edge Tint", "NodeSocketColor", "NONE",
-                                 tuple(pg.edge_tint), 0.0, 1.0, None, field="edge_tint"))
+                                 edge_tint, 0.0, 1.0, None, field="edge_tint",
+                                 description="Colour of the metal toward grazing angles (Gulbrandsen 2014). "
+                                             "Accepted: [0, 1]"))
         elif i.field != "k":
             out.append(replace(i))
     return out
+
+
+def face_value(pg, field: str, value) -> bool:
+    """A reflectivity or edge tint typed on the node: the metal becomes the artist mode's with
+    that colour (a measured metal is no longer the measurement). Returns whether it was one."""
+    if field not in ("reflectivity", "edge_tint"):
+        return False
+    if pg.mode != "ARTIST":
+        pg.mode = "ARTIST"  # the current metal in the artist's terms (``_on_mode``)
+    setattr(pg, field, tuple(value[:3]))
+    return True
 
 
 def gulbrandsen_nodes(nt, r, g):
@@ -163,4 +207,5 @@ def gulbrandsen_nodes(nt, r, g):
     return n, k
 
 
-HOOKS = KindHooks("conductor", properties=properties, draw=draw, written=written, face_inputs=face_inputs)
+HOOKS = KindHooks("conductor", properties=properties, draw=draw, written=written, face_inputs=face_inputs,
+                  face_value=face_value)

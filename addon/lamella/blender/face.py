@@ -1,9 +1,11 @@
 """A Lamella material's face: the one shading node an artist sees, textures and composes.
 
 The face is a group node (``FACE``) in the material's own node tree. Its group (one per material,
-``Lamella <material>``) has an input for every field of every layer, in the panel's order, units
-and labels ("Clear Coat: Roughness" in Blender's roughness r, a colour as one colour socket, an
-angle in radians), then ``Normal`` and ``Tangent``, and a ``BSDF`` output, with ``Thickness`` (0)
+``Lamella <material>``) has an input for every field of every layer, in the panel's order and
+units, named "<layer label>: <field label>" ("Clear Coat: Roughness", in Blender's roughness r),
+with the field's tooltip, and typed for its value (a reflectance a colour, any other RGB field
+three values, a rotation an angle within a turn, a film thickness in nanometres), then ``Normal``
+and ``Tangent``, and a ``BSDF`` output, with ``Thickness`` (0)
 for the output's Thickness, which only EEVEE reads (``THICKNESS``). The artist links textures
 into it and puts it anywhere in their tree (a Mix Shader, an Add Shader with an emission);
 Lamella never touches a node or link outside the group except to link a face it has just created
@@ -14,6 +16,8 @@ Each input belongs to a layer, not to a position: its key is ``<layer uid>/<fiel
 (``FaceInput``), kept in the group (``SOCKETS_KEY``: interface socket identifier -> key), so a
 texture, keyframe or link on a coat stays on that coat when others are added, removed, moved,
 muted or duplicated. A muted coat keeps its inputs (and their links); they feed nothing.
+The node records what Lamella last set on each input (``SHOWN_KEY``), so a value the artist types
+there is told from it (``typed_values``, taken into the panel by ``socket_edits``).
 
 Inside the group (rebuilt by ``wire``): each input clamped to its field's hard limits (a linked
 value behaves as a panel value; a colour above a reflectance's 1 adds no energy), the normal
@@ -32,6 +36,7 @@ extension, in any of the three.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..core.backends.osl.emit import ENGINE_SWITCH
@@ -40,11 +45,13 @@ from ..core.param_id import AXES, NORMAL as NORMAL_FIELD, layer_prefix, normal_s
 from .kind_hooks import hooks
 from .node_group import shared_group
 from .osl_compile import set_socket
+from .tooltips import field_tooltip, roughness_tooltip
 
 FACE = "Lamella"  # the face node's name in the material
 FACE_KEY = "lamella_face"  # a face group's layout version
 FACE_LAYOUT = 1
 SOCKETS_KEY = "lamella_sockets"  # face group: interface socket identifier -> input key
+SHOWN_KEY = "lamella_shown"  # face node: input key -> the value Lamella last set on its socket
 SCRIPT = "Lamella Shader"
 GROUP = "Lamella Nodes"
 SWITCH = "Lamella Switch"
@@ -79,12 +86,14 @@ def face_node(mat):
 @dataclass(frozen=True)
 class FaceInput:
     """One input of the face: ``key`` (``<layer uid>/<field>``) names the layer and field it
-    belongs to; ``name`` the label shown; ``socket_type`` a Blender interface socket type and
-    ``subtype``; ``value`` the panel's value (a float or an RGB tuple); ``lo``/``hi`` the hard
-    limits a linked value is clamped to (None: open); ``model`` the model socket it feeds now
-    (``core.backends.ir.sockets``: ``coat0_roughness``), None for a muted layer or an input that
-    feeds the model through a conversion: ``derived`` lists those (a kind's Blender hook: the
-    conductor's artist colours make its eta and k)."""
+    belongs to; ``name`` the label shown ("<layer label>: <field label>"); ``socket_type`` a
+    Blender interface socket type and ``subtype``; ``value`` the panel's value (a float or an RGB
+    tuple) as the socket shows it; ``lo``/``hi`` the hard limits a linked value is clamped to (None:
+    open); ``shown`` the range the socket itself accepts (default ``lo``/``hi``); ``model`` the
+    model socket it feeds now (``core.backends.ir.sockets``: ``coat0_roughness``), None for a muted
+    layer or an input that feeds the model through a conversion: ``derived`` lists those (a kind's
+    Blender hook: the conductor's reflectivity and edge tint make its eta and k); ``description``
+    the socket's tooltip."""
 
     key: str
     name: str
@@ -95,35 +104,62 @@ class FaceInput:
     hi: float | None
     model: str | None
     derived: tuple = ()  # ((model sockets), (input keys they are made from), build(nt, sources) -> sockets), ...
-    field: str = ""  # the layer field it sets (schema name)
+    field: str = ""  # the layer field it sets (schema name, or a kind hook's property)
     axis: str = ""  # "x", "y": which roughness of an anisotropic interface
+    description: str = ""
+    shown: tuple | None = None  # (min, max) the socket accepts, where it differs from (lo, hi)
+
+    @property
+    def socket_range(self) -> tuple:
+        lo, hi = self.shown if self.shown is not None else (self.lo, self.hi)
+        return (-3.0e38 if lo is None else lo, 3.0e38 if hi is None else hi)
+
+    @property
+    def is_direction(self) -> bool:
+        """A normal or a tangent: a direction, unlinked the shading frame's (no value shown)."""
+        return self.field == NORMAL_FIELD
+
+
+TURN = 2.0 * math.pi
+# what the socket of each schema unit shows it as (a float socket's subtype)
+UNIT_SUBTYPES = {"nm": "WAVELENGTH"}
 
 
 def _field_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool) -> list[FaceInput]:
     """``layer``: the layer's index in the model (a coat's among the shown coats; None: the
-    base); ``shown``: whether the layer reaches the model (a muted coat's inputs feed nothing)."""
+    base); ``shown``: whether the layer reaches the model (a muted coat's inputs feed nothing).
+    A reflectance is a colour; any other RGB field (an absorption, a complex index) three values;
+    a rotation an angle within a turn either way (the anisotropy repeats every half turn, so the
+    socket shows the stored rotation wrapped into a half turn either way: the same look)."""
     def model(field: str, axis: str = "") -> str | None:
         return socket_name(layer, field, axis) if shown else None
 
     out = []
     for f in kind.fields:
-        name = f"{label}: {f.ui_label}"
-        if f.type in (FLOAT, ANGLE):
-            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "ANGLE" if f.type == ANGLE else "NONE",
-                                 float(getattr(pg, f.name)), f.lo, f.hi, model(f.name), field=f.name))
+        name, tip = f"{label}: {f.ui_label}", field_tooltip(f)
+        if f.type == FLOAT:
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", UNIT_SUBTYPES.get(f.unit, "NONE"),
+                                 float(getattr(pg, f.name)), f.lo, f.hi, model(f.name), field=f.name,
+                                 description=tip))
+        elif f.type == ANGLE:
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "ANGLE",
+                                 math.remainder(float(getattr(pg, f.name)), TURN), f.lo, f.hi, model(f.name),
+                                 field=f.name, description=f"{tip}; the anisotropy repeats every half turn",
+                                 shown=(-TURN, TURN)))
         elif f.type == RGB:
-            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketColor", "NONE",
-                                 tuple(float(x) for x in getattr(pg, f.name)), f.lo, f.hi, model(f.name),
-                                 field=f.name))
+            out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketColor" if f.color else "NodeSocketVector",
+                                 "NONE", tuple(float(x) for x in getattr(pg, f.name)), f.lo, f.hi, model(f.name),
+                                 field=f.name, description=tip))
         elif f.type == ROUGHNESS:
             x, y = AXES
             aniso = bool(getattr(pg, f"{f.name}_anisotropic"))
             out.append(FaceInput(f"{uid}/{f.name}", name, "NodeSocketFloat", "FACTOR", float(getattr(pg, f.name)),
-                                 0.0, 1.0, model(f.name, x if aniso else ""), field=f.name, axis=x if aniso else ""))
+                                 0.0, 1.0, model(f.name, x if aniso else ""), field=f.name, axis=x if aniso else "",
+                                 description=roughness_tooltip(f)))
             if aniso:
                 out.append(FaceInput(f"{uid}/{f.name}_y", f"{name} Y", "NodeSocketFloat", "FACTOR",
                                      float(getattr(pg, f"{f.name}_y")), 0.0, 1.0, model(f.name, y),
-                                     field=f.name, axis=y))
+                                     field=f.name, axis=y, description=roughness_tooltip(f, across=True)))
     return out
 
 
@@ -134,7 +170,8 @@ def _layer_inputs(kind, pg, uid: str, label: str, layer: int | None, shown: bool
     # the layer's own normal (a bump on a coat, flakes on the base): unlinked, the shading normal
     return inputs + [FaceInput(f"{uid}/{NORMAL_FIELD}", f"{label}: Normal", "NodeSocketVector", "NONE",
                                (0.0, 0.0, 0.0), None, None, normal_socket(layer_prefix(layer)) if shown else None,
-                               field=NORMAL_FIELD)]
+                               field=NORMAL_FIELD, description=f"The normal this layer's interface is about (a bump "
+                                                               f"map's Normal); unlinked, the shading normal")]
 
 
 def face_inputs(settings) -> list[FaceInput]:
@@ -160,10 +197,16 @@ def socket_keys(tree) -> dict:
     return {k: str(v) for k, v in stored.items()} if stored is not None else {}
 
 
+FRAME_TIPS = {NORMAL: "The shading normal of every layer without a Normal of its own (a bump map's Normal); "
+                     "unlinked, the shading normal",
+              TANGENT: "The direction anisotropic roughness and rotations are measured from; unlinked, a "
+                       "tangent radial about the object's z axis"}
+
+
 def sync_interface(tree, inputs: list[FaceInput]) -> None:
     """Make ``tree``'s interface the face's ``inputs`` (then Normal, Tangent; outputs BSDF and
     Thickness), keeping every socket whose key stays (and so the links, keyframes and drivers on
-    it), renamed and moved to its place."""
+    it), renamed, retyped in place and moved to its place."""
     keys = socket_keys(tree)
     want = [(i.key, i.name, i.socket_type) for i in inputs] + [(NORMAL, NORMAL, "NodeSocketVector"),
                                                                  (TANGENT, TANGENT, "NodeSocketVector")]
@@ -171,7 +214,9 @@ def sync_interface(tree, inputs: list[FaceInput]) -> None:
     have = {}
     for s in _inputs(tree):
         key = keys.get(s.identifier, s.name if s.name in (NORMAL, TANGENT) else None)
-        if key in types and s.socket_type == types[key] and key not in have:
+        if key in types and key not in have:
+            if s.socket_type != types[key]:  # a colour that is now a value: retyped, its links kept
+                s.socket_type = types[key]
             have[key] = s
         else:
             tree.interface.remove(s)
@@ -193,48 +238,88 @@ def sync_interface(tree, inputs: list[FaceInput]) -> None:
         if s.name != name:
             s.name = name
         i = spec.get(key)
-        if i is None or i.socket_type == "NodeSocketVector":  # Normal, Tangent, a layer's own normal
+        tip = FRAME_TIPS.get(key, "") if i is None else i.description
+        if s.description != tip:
+            s.description = tip
+        if i is None or i.is_direction:  # Normal, Tangent, a layer's own normal
             s.hide_value = True
         else:
+            s.hide_value = False
             if hasattr(s, "subtype") and s.subtype != i.subtype:
                 try:
                     s.subtype = i.subtype
                 except (TypeError, AttributeError):
                     pass
-            if i.socket_type == "NodeSocketFloat":
-                s.min_value = -3.0e38 if i.lo is None else i.lo
-                s.max_value = 3.0e38 if i.hi is None else i.hi
+            if hasattr(s, "min_value"):
+                s.min_value, s.max_value = i.socket_range
             set_socket(s, i.value)
         if s.position != first + pos:  # in order, every move is upward: it lands where it is asked to
             tree.interface.move(s, first + pos)
     tree[SOCKETS_KEY] = {s.identifier: key for key, s in have.items()}
 
 
-def node_socket(node, key: str):
-    """The face node's input socket of ``key``, or None."""
+def node_sockets(node) -> dict:
+    """The face node's input sockets by input key."""
     tree = node.node_tree
     if tree is None:
-        return None
-    ident = next((i for i, k in socket_keys(tree).items() if k == key), None)
-    if ident is None:
-        return None
-    return next((s for s in node.inputs if s.identifier == ident), None)
+        return {}
+    by_ident = {s.identifier: s for s in node.inputs}
+    return {k: by_ident[i] for i, k in socket_keys(tree).items() if i in by_ident}
+
+
+def node_socket(node, key: str):
+    """The face node's input socket of ``key``, or None."""
+    return node_sockets(node).get(key)
+
+
+def socket_value(sock) -> tuple:
+    """What an input socket holds, as a tuple of its float32 numbers (one for a value)."""
+    v = sock.default_value
+    return tuple(float(x) for x in v) if hasattr(v, "__len__") else (float(v),)
 
 
 def set_node_values(node, inputs: list[FaceInput]) -> None:
-    """The face node's unlinked inputs show the panel's values (what the shader bakes)."""
+    """The face node's inputs show the panel's values (what the shader bakes where nothing is
+    linked), and the node records what each now holds (``SHOWN_KEY``), so a value typed on the node
+    afterwards is told from the one Lamella set (``typed_values``)."""
+    socks = node_sockets(node)
+    shown = {}
     for i in inputs:
-        sock = node_socket(node, i.key)
-        if sock is not None:
+        sock = socks.get(i.key)
+        if sock is not None and not i.is_direction:
             set_socket(sock, i.value)
+            shown[i.key] = socket_value(sock)
+    node[SHOWN_KEY] = shown
+
+
+def typed_values(node, inputs: list[FaceInput], animated=frozenset()) -> list[tuple[FaceInput, tuple]]:
+    """The inputs whose value the artist typed on the node since Lamella last set it (neither
+    linked nor animated, holding another value than the one ``set_node_values`` recorded), each
+    with the value it holds now; they are recorded as seen."""
+    shown = node.get(SHOWN_KEY)
+    if shown is None:
+        return []
+    socks, out = node_sockets(node), []
+    for i in inputs:
+        sock, was = socks.get(i.key), shown.get(i.key)
+        if sock is None or was is None or i.is_direction or sock.is_linked \
+                or sock.path_from_id("default_value") in animated:
+            continue
+        now = socket_value(sock)
+        if now != tuple(was):
+            out.append((i, now))
+            shown[i.key] = now
+    return out
 
 
 def live_keys(node, inputs: list[FaceInput], animated=frozenset()) -> frozenset:
     """The keys of the face inputs that are linked (a texture, an attribute, another node) or
     animated (keyframes or a driver on the input; ``animated``: the animated data paths of the
     node's tree, ``animation.animated_paths``)."""
+    socks = node_sockets(node)
+
     def live(key):
-        sock = node_socket(node, key)
+        sock = socks.get(key)
         return sock is not None and (sock.is_linked or sock.path_from_id("default_value") in animated)
 
     return frozenset(i.key for i in inputs if live(i.key))
@@ -261,7 +346,7 @@ X = 200.0
 def _clamped(nt, src, i: FaceInput, y: float):
     """``src`` clamped to ``i``'s hard limits (a colour channel-wise)."""
     out = src
-    if i.socket_type == "NodeSocketColor":
+    if i.socket_type in ("NodeSocketColor", "NodeSocketVector"):
         for op, bound in (("MAXIMUM", i.lo), ("MINIMUM", i.hi)):
             if bound is None:
                 continue
@@ -357,7 +442,7 @@ def wire(tree, inputs: list[FaceInput], script, group, live=frozenset()) -> None
     clamped = {}
 
     def clamp(key):
-        if key not in live or spec[key][1].socket_type == "NodeSocketVector":  # a normal is a direction
+        if key not in live or spec[key][1].is_direction:  # a normal is a direction
             return port(key)
         if key not in clamped:
             k, i = spec[key]

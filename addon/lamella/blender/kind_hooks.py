@@ -10,7 +10,8 @@ fields left editable (None: all); ``icon(pg)``: one layer's icon where it depend
 (a coat that scatters shows as a medium); ``written(pg)``: after a stack's layer was written into
 the PropertyGroup; ``face_inputs(pg, inputs, uid, label)``: the layer's inputs on the material's
 Lamella node in place of its fields' (``face.FaceInput``; e.g. the conductor's artist colours,
-converted to eta and k inside the node).
+converted to eta and k inside the node); ``face_value(pg, field, value)``: a value the artist typed
+on one of those inputs, written into the PropertyGroup (returns whether ``field`` was the hook's).
 
 Hooks are registered before the extension registers its properties: the built-in kinds' by
 ``lamella.blender`` when it is imported (the coat's ``COAT_HOOKS`` below, the conductor's in
@@ -37,9 +38,10 @@ class KindHooks:
     icon: Callable | None = None
     written: Callable | None = None
     face_inputs: Callable | None = None
+    face_value: Callable | None = None
 
 
-_HOOK_NAMES = ("properties", "draw", "icon", "written", "face_inputs")
+_HOOK_NAMES = ("properties", "draw", "icon", "written", "face_inputs", "face_value")
 
 
 def _complete(h: KindHooks) -> None:

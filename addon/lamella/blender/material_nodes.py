@@ -245,6 +245,24 @@ def input_for_model(mat, model_socket: str):
     return face.node_socket(node, i.key) if node is not None and i is not None else None
 
 
+def not_an_input_message(mat, names) -> str:
+    """What to do when the inputs ``names`` (model sockets: ``coat0_roughness``) of ``mat``'s
+    Lamella node are linked or animated but the stack being compiled has no such input: the
+    inputs named as the node shows them, with what feeds them."""
+    shown = []
+    for name in names:
+        sock = input_for_model(mat, name)
+        if sock is None:
+            shown.append(name)
+            continue
+        fed = f" (linked from {sock.links[0].from_node.name!r})" if sock.is_linked and sock.links else " (animated)"
+        shown.append(f"{sock.name!r}{fed}")
+    many = len(shown) > 1
+    return (f"the Lamella node's input{'s' if many else ''} {', '.join(shown)} {'feed' if many else 'feeds'} "
+            f"a layer or field this stack does not have: unlink {'them' if many else 'it'} (or link into an input "
+            "the stack has), then apply again; the material keeps its shader")
+
+
 def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) -> bool | None:
     """Put a compiled shader (``OslShader`` compiled to ``oso_path``) and the node group of the
     same staging into ``mat``'s face, and wire the face's inputs to both. With ``build_group``

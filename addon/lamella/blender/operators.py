@@ -22,7 +22,7 @@ from ..core.stack import MAX_COATS, Stack, StackError
 from . import api, material_nodes, paths, recompile
 from .animation import following_layers
 from .i18n import rpt_
-from .stack_props import copy_layer, new_uid, write_kind
+from .stack_props import copy_layer, new_uid, unique_label, write_kind
 
 
 def context_material(context):
@@ -204,7 +204,7 @@ class LAMELLA_OT_layer_add(_MaterialOperator, bpy.types.Operator):
             item = s.coats.add()
             item.kind = kind.type
             item.uid = new_uid()
-            item.name = t["label"]
+            item.name = unique_label(t["label"], [c.name for c in s.coats][:-1])
             write_kind(kind, item.settings(), layer)
             s.coats.move(len(s.coats) - 1, at)
             s.active_index = at
@@ -269,6 +269,7 @@ class LAMELLA_OT_layer_duplicate(_MaterialOperator, bpy.types.Operator):
             src = s.active_index
             item = s.coats.add()
             copy_layer(s.coats[src], item)
+            item.name = unique_label(item.name, [c.name for c in s.coats][:-1])
             s.coats.move(len(s.coats) - 1, src)
             s.active_index = src
         self.compiled(mat)

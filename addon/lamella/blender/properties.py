@@ -30,9 +30,30 @@ from ..core.models import MODELS
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import r_from_alpha
 from . import kind_hooks, recompile
+from .stack_props import unique_label
+from .tooltips import field_tooltip, roughness_tooltip
 
 def _on_edit(self, context):
     recompile.schedule(self.id_data)
+
+
+_naming = False
+
+
+def _on_name(self, context):
+    """A layer renamed: its label, made unique in its material ("Clear Coat 2"), names its inputs
+    on the Lamella node at the compile the edit schedules."""
+    global _naming
+    if not _naming:
+        others = [c.name for c in self.id_data.lamella.coats if c.as_pointer() != self.as_pointer()]
+        label = unique_label(self.name, others)
+        if label != self.name:
+            _naming = True
+            try:
+                self.name = label
+            finally:
+                _naming = False
+    _on_edit(self, context)
 
 
 def _on_inspect(self, context):
@@ -48,16 +69,9 @@ def _limits(f) -> dict:
     return kw
 
 
-def _description(f) -> str:
-    """The tooltip: the schema's description, unit and hard limits (what the parser accepts)."""
-    unit = f" [{f.unit}]" if f.unit and f.type != ROUGHNESS else ""
-    limits = f". Accepted: {f.limits_text()}" if f.type != ROUGHNESS else ""
-    return f"{f.description[:1].upper()}{f.description[1:]}{unit}{limits}"
-
-
 def field_properties(f, update=_on_edit) -> dict:
     """The Blender properties (name -> property definition) that hold schema field ``f``."""
-    label, desc = f.ui_label, _description(f)
+    label, desc = f.ui_label, field_tooltip(f)
     if f.type in (FLOAT, ANGLE):
         return {f.name: FloatProperty(name=label, description=desc, default=float(f.default),
                                       subtype="ANGLE" if f.type == ANGLE else "NONE", update=update, **_limits(f))}
@@ -66,15 +80,13 @@ def field_properties(f, update=_on_edit) -> dict:
                                             subtype="COLOR" if f.color else "NONE", update=update, **_limits(f))}
     if f.type == ROUGHNESS:
         ax, ay = f.default if isinstance(f.default, (list, tuple)) else (f.default, f.default)
-        base = ("Blender roughness r (GGX alpha = r squared) of the interface; "
-                f"{f.description.split(':')[0]}")
         return {
-            f.name: FloatProperty(name=label, description=base + " (along the tangent when anisotropic)",
+            f.name: FloatProperty(name=label, description=roughness_tooltip(f),
                                   default=r_from_alpha(ax), min=0.0, max=1.0, subtype="FACTOR", update=update),
             f"{f.name}_anisotropic": BoolProperty(
                 name="Anisotropic", description="Different roughness along and across the tangent (brushed)",
                 default=ax != ay, update=update),
-            f"{f.name}_y": FloatProperty(name=f"{label} Y", description=base + " across the tangent",
+            f"{f.name}_y": FloatProperty(name=f"{label} Y", description=roughness_tooltip(f, across=True),
                                          default=r_from_alpha(ay), min=0.0, max=1.0, subtype="FACTOR", update=update),
         }
     raise TypeError(f"no Blender property for field type {f.type!r}")
@@ -198,8 +210,9 @@ def build_classes() -> tuple:
     KIND_GROUPS.update({k.type: _kind_group(k) for k in (*COAT_KINDS.values(), *BASE_KINDS.values())})
     LAMELLA_PG_layer.__annotations__ = {
         "kind": EnumProperty(name="Kind", items=_kind_items(COAT_KINDS), update=_on_edit),
-        "name": StringProperty(name="Name", description="The layer's name: the list's and its inputs' on the "
-                                                        "material's Lamella node", update=_on_edit),
+        "name": StringProperty(name="Name", description="The layer's label, its own in the material: the list's, "
+                                                        "and its inputs' on the material's Lamella node "
+                                                        "(\"<label>: <field>\")", update=_on_name),
         "show": BoolProperty(name="Show", description="Include this layer in the material (mute it to compare)",
                              default=True, update=_on_edit),
         "uid": StringProperty(name="Identity", options={"HIDDEN"},

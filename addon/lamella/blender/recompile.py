@@ -41,14 +41,15 @@ import bpy
 from bpy.app.handlers import persistent
 
 from ..core import stack_format
+from ..core.backends.ir.staging import NotAnInput
 from ..core.backends.osl.emit import osl_shader
 from ..core.models import UnsupportedStack
 from ..core.stack import Stack, StackError
-from . import app_handlers, compiled, input_recipes, inspector, material_nodes, versioning
+from . import app_handlers, compiled, input_recipes, inspector, material_nodes, socket_edits, versioning
 from .animation import mirror_panel
 from .material_nodes import group_needed, osl_usable
 from .osl_compile import OSLCompileError, compile_source
-from .stack_props import ensure_uids, stack_dict
+from .stack_props import ensure_labels, ensure_uids, stack_dict
 
 DEBOUNCE = 0.08  # seconds of quiet after an edit before the shader is rebuilt
 GROUP_DELAY = 0.5  # seconds of quiet after an edit before a node group nobody renders is rebuilt
@@ -270,7 +271,10 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
     settings = mat.lamella
     t0 = time.perf_counter()
     ensure_uids(settings)
+    ensure_labels(settings)
     if not versioning.refuses_edits(settings):
+        with suspended():  # a value typed on the node: this compile takes it
+            _guarded(mat, "reading the values typed on the node", lambda: socket_edits.take(mat))
         input_recipes.link_pending(mat)  # a preset's procedural inputs, waiting for the Lamella node
         material_nodes.sync_inputs(mat)  # what is linked or animated, by layer, before the live set is read
     if settings.compiled_json:
@@ -290,7 +294,8 @@ def compile_material(mat, raise_errors: bool = False, defer_group: bool = False,
                              partition)
     except (StackError, UnsupportedStack, OSLCompileError, ValueError) as e:
         settings.status = "ERROR"
-        settings.status_message = str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0]
+        settings.status_message = (material_nodes.not_an_input_message(mat, e.names) if isinstance(e, NotAnInput)
+                                   else str(e) if isinstance(e, OSLCompileError) else str(e).splitlines()[0])
         if raise_errors:
             raise
         return False
@@ -375,8 +380,10 @@ def links_changed(mat) -> bool:
 @persistent
 def _flush_before(*_args):
     """Before a save: every pending shader and node group, so the file holds both up to date (and
-    a drag's materials merged anew: ``settle``), and the panel's animation copied onto the Lamella
-    nodes (``animation``), so the file renders it without the extension."""
+    a drag's materials merged anew: ``settle``), the values typed on the Lamella nodes taken into
+    their panels (``socket_edits``) and the panel's animation copied onto the Lamella nodes
+    (``animation``), so the file renders it without the extension."""
+    _take_typed_values()
     for mat in _mirror_animation():
         if mat.name_full not in _pending and _guarded(mat, "reading the links", lambda m=mat: links_changed(m), False):
             _pending[mat.name_full] = True
@@ -402,8 +409,18 @@ def _mirror_animation() -> list:
 _osl_state: dict[str, tuple] = {}  # scene name -> (engine, whether its Cycles ran OSL) at the last look
 
 
+def _take_typed_values(trees=None) -> None:
+    """The values typed on Lamella nodes into their panels (``socket_edits.take``, which schedules
+    their compiles), for every material, or those whose node tree is in ``trees`` (pointers)."""
+    for mat in bpy.data.materials:
+        if mat.library is None and mat.lamella.enabled and mat.lamella.compiled_json and (
+                trees is None or (mat.node_tree is not None and mat.node_tree.as_pointer() in trees)):
+            _guarded(mat, "reading the values typed on the node", lambda m=mat: socket_edits.take(m))
+
+
 @persistent
 def _before_render(scene, *_args):
+    _take_typed_values()
     _mirror_animation()
     for mat in bpy.data.materials:  # a texture linked or unlinked since the last compile, or a node broken
         if never_compiled(mat):
@@ -424,14 +441,20 @@ def _before_render(scene, *_args):
 @persistent
 def _after_depsgraph(scene, depsgraph=None, *_args):
     """When the scene's engine, OSL switch or device changes, build the node groups that wait if
-    the scene now renders them (cheap otherwise: one comparison); compile a Lamella
+    the scene now renders them (cheap otherwise: one comparison); take a value typed on a Lamella
+    node into its panel (``socket_edits``: looked for in the updated node trees only); compile a Lamella
     material that arrives without a shader (``never_compiled``: looked for among the updated data
     only)."""
     if depsgraph is not None:
+        trees = set()
         for update in depsgraph.updates:
             mat = update.id.original
             if isinstance(mat, bpy.types.Material) and never_compiled(mat):
                 schedule(mat)
+            elif isinstance(mat, bpy.types.ShaderNodeTree):  # a material's nodes: a value typed on one?
+                trees.add(mat.as_pointer())
+        if trees:
+            _take_typed_values(trees)
 
     state = (scene.render.engine, osl_usable(scene))
     if _osl_state.get(scene.name) != state:

@@ -7,6 +7,7 @@ the numbers that were written.
 """
 from __future__ import annotations
 
+import re
 import uuid
 
 from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
@@ -68,15 +69,51 @@ def stack_dict(settings, include_muted: bool = False) -> dict:
             "base": kind_values(BASE_KINDS[settings.base.kind], settings.base.settings())}
 
 
+BASE_LABEL = "Base"  # the base's label: its inputs on the Lamella node are "Base: <field>"
+CLEAR_ALPHA = 0.04  # a coat at most this rough (GGX alpha; Blender roughness 0.2) is a clear coat
+
+
 def layer_label(layer) -> str:
-    """A name for a new coat from what it is: medium, tinted, brushed, clear."""
+    """A label for a new coat from what it is: a medium, tinted, brushed, clear or rough coat.
+    Given once, when the coat is made; an edit of its values never changes it."""
+    ax, ay = layer.roughness
     if layer.has_scattering:
-        return "Scattering Medium"
+        return "Medium" if layer.ior == 1.0 and ax == ay == 0.0 else "Scattering Coat"
     if layer.has_absorption:
         return "Tinted Coat"
-    if layer.roughness[0] != layer.roughness[1]:
+    if ax != ay:
         return "Brushed Coat"
-    return "Rough Coat" if not layer.is_smooth else "Clear Coat"
+    return "Clear Coat" if max(ax, ay) <= CLEAR_ALPHA else "Rough Coat"
+
+
+_NUMBERED = re.compile(r"^(.*?) (\d+)$")
+
+
+def unique_label(label: str, taken) -> str:
+    """``label``, or the next numbered one ("Clear Coat 2") if a layer of the material holds it
+    (``taken``: the other layers' labels; the base's is always taken)."""
+    taken = set(taken) | {BASE_LABEL}
+    label = label.strip() or "Coat"
+    if label not in taken:
+        return label
+    m = _NUMBERED.match(label)
+    stem, n = (m.group(1), int(m.group(2))) if m else (label, 2)
+    while f"{stem} {n}" in taken:
+        n += 1
+    return f"{stem} {n}"
+
+
+def ensure_labels(settings) -> bool:
+    """Give every coat a label no other layer of the material has (a file saved before labels
+    were unique: the later of two alike is numbered). Returns whether any changed."""
+    seen, changed = set(), False
+    for item in settings.coats:
+        label = unique_label(item.name, seen)
+        if label != item.name:
+            item.name = label
+            changed = True
+        seen.add(label)
+    return changed
 
 
 def new_uid() -> str:
@@ -96,19 +133,27 @@ def ensure_uids(settings) -> bool:
     return changed
 
 
-def write_stack(settings, stack: Stack) -> None:
+def write_stack(settings, stack: Stack, labels=None) -> None:
     """Replace the material's layers and base by ``stack`` (already validated), stored in the
     current stack format. The coat at each position keeps its identity (the face's inputs, and
-    the textures linked into them, stay with the position, as a whole-stack replacement means)."""
+    the textures linked into them, stay with the position, as a whole-stack replacement means) and,
+    unless ``labels`` is given, its label; ``labels`` (a preset's: one per coat, top to bottom,
+    or () for none) names the coats anew, a coat without one by what it is (``layer_label``)."""
     settings.format = FORMAT
     settings.stack_name = stack.name
-    kept = [item.uid for item in settings.coats]  # the layer at each position keeps its identity
+    kept = [(item.uid, item.name) for item in settings.coats]  # the layer at each position keeps its identity
     settings.coats.clear()
+    given = None if labels is None else tuple(labels)
+    taken = []
     for k, c in enumerate(stack.coats):
         item = settings.coats.add()
         item.kind = c.type
-        item.uid = kept[k] if k < len(kept) and kept[k] else new_uid()
-        item.name = layer_label(c)
+        uid, name = kept[k] if k < len(kept) else ("", "")
+        item.uid = uid or new_uid()
+        if given is not None:
+            name = given[k] if k < len(given) else ""
+        item.name = unique_label(name or layer_label(c), taken)
+        taken.append(item.name)
         write_kind(COAT_KINDS[c.type], item.settings(), c)
     settings.active_index = 0
     settings.base.kind = stack.base.type
@@ -121,7 +166,7 @@ def copy_layer(src, dst) -> None:
     dst.uid = new_uid()
     dst.kind = src.kind
     dst.show = src.show
-    dst.name = src.name
+    dst.name = src.name  # the caller makes it unique in its material (``unique_label``)
     for k in COAT_KINDS:
         s, d = getattr(src, k), getattr(dst, k)
         for prop in s.bl_rna.properties:

@@ -31,6 +31,7 @@ class Preset:
     path: Path
     builtin: bool
     inputs: tuple = ()  # ((socket name, recipe name), ...)
+    layer_labels: tuple = ()  # what the panel and the Lamella node call its coats, top to bottom (a built-in's)
 
     def load(self) -> Stack:
         try:
@@ -42,14 +43,21 @@ class Preset:
 def builtin() -> list[Preset]:
     index = json.loads((PRESET_DIR / "INDEX.json").read_text())
     return [Preset(p["id"], p["label"], p["description"], (PRESET_DIR / p["file"]).resolve(), True,
-                   tuple(sorted(p.get("inputs", {}).items())))
+                   tuple(sorted(p.get("inputs", {}).items())), tuple(p.get("layers", ())))
             for p in index["presets"]]
 
 
 def check_inputs(preset: Preset) -> None:
     """A ``StackError`` naming the preset and socket if an input it links is not a socket of its
-    stack's layers: ``coat<i>_<field>`` of an existing coat's kind, or ``base_<field>``."""
+    stack's layers (``coat<i>_<field>`` of an existing coat's kind, or ``base_<field>``), or naming
+    the preset if a built-in one does not label each coat once, with labels of their own."""
     stack = preset.load()
+    if preset.builtin and len(preset.layer_labels) != len(stack.coats):
+        raise StackError("stack", None, f"preset {preset.id!r}: {len(preset.layer_labels)} layer labels for "
+                                        f"{len(stack.coats)} coats")
+    if len(set(preset.layer_labels)) != len(preset.layer_labels) or "Base" in preset.layer_labels:
+        raise StackError("stack", None, f"preset {preset.id!r}: its layer labels must differ from each other and "
+                                        f"from 'Base', got {list(preset.layer_labels)}")
     for socket, recipe in preset.inputs:
         layer, _, field = socket.partition("_")
         fields = {NORMAL}  # every layer has a Normal input of its own

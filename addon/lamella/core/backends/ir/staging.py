@@ -255,6 +255,15 @@ class _Columns:
         return np.stack(self.data, -1).astype(np.float32)
 
 
+class NotAnInput(ValueError):
+    """Live parameters asked of a stack that has no such input (``names``; ``have``: the inputs it
+    has): a texture linked into a layer or field the stack no longer holds."""
+
+    def __init__(self, names, have):
+        self.names, self.have = tuple(names), tuple(have)
+        super().__init__(f"not an input of this shader: {', '.join(self.names)} (have: {', '.join(self.have)})")
+
+
 def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | None = None,
           traced=None, live_axes: int = 0, partition=None, stand_ins: int = STAND_INS) -> Staged:
     """Stage ``stack`` (a Stack, dict or JSON) under ``model`` for a material whose parameters in
@@ -281,8 +290,7 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     defaults = {k: float(t.defaults[k]) for k in t.params}
     unknown = sorted(n for n in live if n not in defaults and n not in socket_names(t.ids))
     if unknown:
-        raise ValueError(f"not an input of this shader: {', '.join(unknown)} "
-                         f"(have: {', '.join(socket_names(t.ids))})")
+        raise NotAnInput(unknown, socket_names(t.ids))
     live = params_of(live, t.ids)
     frame = "view" if isotropic(stack) else "shading"
     if grid is not None and frame == "view" and grid.n_phi != 1:
@@ -815,4 +823,4 @@ def _axes_of_tensor(ops, txx, tyy, txy) -> dict:
     return {"ax": e["big"], "ay": ops.max(e["small"], 0.0), "cos": e["cos"], "sin": e["sin"]}
 
 
-__all__ = ["ViewGrid", "Staged", "StagedOps", "stage", "grid_values", "lookup", "isotropic", "N_MU", "N_PHI"]
+__all__ = ["NotAnInput", "ViewGrid", "Staged", "StagedOps", "stage", "grid_values", "lookup", "isotropic", "N_MU", "N_PHI"]
