@@ -7,7 +7,7 @@ import math
 
 from lamella.core import stack_format
 from lamella.core.layers import BASE_KINDS, COAT_KINDS
-from lamella.core.layers.schema import ANGLE, FLOAT, RGB, ROUGHNESS
+from lamella.core.layers.schema import ANGLE, BOOL, FLOAT, RGB, ROUGHNESS
 from lamella.core.stack import MAX_COATS, MAX_JSON, MAX_NAME, Stack
 
 PAGE = "docs/stack-format.md"
@@ -17,6 +17,7 @@ _TYPES = {
     RGB: "RGB: 3 numbers (one number is used for all three)",
     ROUGHNESS: "GGX alpha: a number (isotropic) or [alpha_x, alpha_y]",
     ANGLE: "angle in radians",
+    BOOL: "true or false",
 }
 
 EXAMPLE = {
@@ -38,6 +39,8 @@ def _number(x) -> str:
         return "π"
     if isinstance(x, float) and math.isclose(x, -math.pi, rel_tol=1e-12):
         return "-π"
+    if isinstance(x, bool):
+        return "true" if x else "false"
     if x and abs(x) >= 1e5:
         return f"{x:.0e}".replace("e+0", "e").replace("e+", "e")
     return f"{x:g}"
@@ -66,7 +69,7 @@ def _kind_section(kind) -> list[str]:
     for f in kind.fields:
         soft = f"{_number(f.soft[0])} to {_number(f.soft[1])}" if f.soft else ""
         lines.append(f"| `{f.name}` | {_TYPES[f.type]} | {f.unit} | {_number(f.default)} | "
-                     f"{_number(f.lo)} to {_number(f.hi)} | {soft} | {f.ui_label}"
+                     f"{f.limits_text() if f.type == BOOL else _number(f.lo) + ' to ' + _number(f.hi)} | {soft} | {f.ui_label}"
                      f"{' (' + f.group + ')' if f.group else ''} | {f.description} |")
     return lines + [""]
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lamella.core import Stack, StackError, api
+from lamella.core import Stack, StackError, api, stack_format
 from lamella.core.backends.evaluate import evaluate_staged
 from lamella.core.backends.ir import staging
 from lamella.core.backends.ir.staging import StagedOps
@@ -144,7 +144,7 @@ def test_a_format_1_stack_reads_as_covering_everything_and_writes_the_current_fo
     s = Stack.from_dict({"format": 1, "layers": [CLEAR], "base": GOLD})
     assert s.coats[0].coverage == 1.0
     d = s.to_dict()
-    assert d["format"] == 2 and d["layers"][0]["coverage"] == 1.0
+    assert d["format"] == stack_format.FORMAT and d["layers"][0]["coverage"] == 1.0
     for bad in (-0.1, 1.5, float("nan"), "half"):
         with pytest.raises(StackError, match="coat 0, field 'coverage'"):
             Stack.from_dict({"layers": [{**CLEAR, "coverage": bad}], "base": GOLD})

@@ -19,7 +19,7 @@ from lamella.core.backends.ir import staging
 from lamella.core.backends.evaluate import evaluate_plan
 from lamella.core.backends.nodes.lower import emit_plan
 from lamella.core.backends.nodes.partition import CHUNK_NODES, SECTION_CHUNKS, own_nodes, partition
-from lamella.core.backends.nodes.plan import Out, texel_range
+from lamella.core.backends.nodes.plan import INSIDE_INPUT, Out, texel_range
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.backends.ir.staging import StagedOps
 from lamella.core.lobe_kinds.bsdf_node import blender_anisotropy
@@ -31,7 +31,9 @@ def _directions(grazing=True):
     theta = np.radians(np.r_[np.linspace(0.0, 88.0, 23), [89.9, 90.0]] if grazing else np.linspace(0.0, 85.0, 18))
     phi = np.radians(np.linspace(0.0, 330.0, 12))
     t, p = np.meshgrid(theta, phi)
-    return {"wi_x": np.sin(t) * np.cos(p), "wi_y": np.sin(t) * np.sin(p), "wi_z": np.cos(t)}
+    # every other azimuth seen from behind: a solid dielectric base's far side (``models.sides``)
+    inside = (np.arange(phi.size)[:, None] % 2 + 0.0 * t).astype(np.float64)
+    return {"wi_x": np.sin(t) * np.cos(p), "wi_y": np.sin(t) * np.sin(p), "wi_z": np.cos(t), INSIDE_INPUT: inside}
 
 
 def _compare(plan, values):

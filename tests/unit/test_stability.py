@@ -6,6 +6,8 @@ from hypothesis import HealthCheck, assume, currently_in_test_context, given, se
 from hypothesis import strategies as st
 
 import lamella.core as lc
+from lamella.core.layers import BOOL
+from lamella.core.models.sides import SIDES
 
 MODELS = list(lc.MODELS)  # every registered model, and auto
 
@@ -78,7 +80,12 @@ def check_if_supported(d, model, dtype, wi, wo):
 
 
 def check_outputs(d, model, dtype, wi, wo):
-    lb = lc.lobes(d, wi, model, dtype=dtype)
+    for seen_from in SIDES:  # a solid dielectric base is seen from inside on a mesh's far side
+        _check_side(d, model, dtype, wi, wo, seen_from)
+
+
+def _check_side(d, model, dtype, wi, wo, seen_from):
+    lb = lc.lobes(d, wi, model, dtype=dtype, seen_from=seen_from)
     for name in ("weight", "alpha_x", "alpha_y", "rotation"):
         a = getattr(lb, name)
         assert a.dtype == dtype, name
@@ -89,7 +96,7 @@ def check_outputs(d, model, dtype, wi, wo):
     # rounding only: up to 9 lobes, each from ~10 dependent float32 operations near 1 (~5e-6)
     slack = 5e-6 if dtype == np.float32 else 1e-12
     assert (total <= 1.0 + slack).all(), total.max()
-    f = lc.evaluate(d, wi, wo, model, dtype=dtype)
+    f = lc.evaluate(d, wi, wo, model, dtype=dtype, seen_from=seen_from)
     assert f.dtype == dtype
     assert np.isfinite(f).all() and (f >= 0).all()
 
@@ -153,7 +160,7 @@ def _limit_stacks():
     for base_type, kind in BASE_KINDS.items():
         for layer_kind, role in ((COAT_KINDS["coat"], "coat"), (kind, "base")):
             for f in layer_kind.fields:
-                for x in (f.lo, f.hi):
+                for x in ((False, True) if f.type == BOOL else (f.lo, f.hi)):
                     c, b = dict(coat), {"type": base_type}
                     (c if role == "coat" else b)[f.name] = x
                     out.append(pytest.param({"layers": [c, dict(coat, ior=1.2)], "base": b},
@@ -180,8 +187,10 @@ def test_every_model_is_finite_and_passive_at_the_schema_limits(d, dtype):
         from lamella.core.backends.evaluate import evaluate_staged
         from lamella.core.backends.ir.staging import stage
 
-        f = evaluate_staged(stage(d), wi, wo, np.float32)
-        assert np.isfinite(f).all() and (f >= 0).all()
+        st = stage(d)
+        for seen_from in SIDES:
+            f = evaluate_staged(st, wi, wo, np.float32, seen_from=seen_from)
+            assert np.isfinite(f).all() and (f >= 0).all()
 
 
 # Found by `lamella stress`: seven coats of very different index, the view below the horizon. The

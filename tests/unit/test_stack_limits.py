@@ -9,7 +9,7 @@ import pytest
 
 from lamella.core import Stack, StackError
 from lamella.core.layers import BASE_KINDS, COAT_KINDS
-from lamella.core.layers.schema import FLOAT32_MAX
+from lamella.core.layers.schema import BOOL, FLOAT32_MAX
 from lamella.core.stack import MAX_JSON, MAX_NAME
 
 
@@ -48,6 +48,13 @@ def test_every_field_has_float32_limits_the_parser_enforces_exactly():
         for kind in kinds.values():
             for f in kind.fields:
                 assert -FLOAT32_MAX < f.lo <= f.hi < FLOAT32_MAX
+                if f.type == BOOL:  # a choice: true or false, and nothing a number could stand for
+                    for x in (False, True):
+                        assert getattr(kind.parse("t", {f.name: x}), f.name) is x
+                    for x in (0, 1, 0.0, "true", None):
+                        with pytest.raises(StackError, match=f.name):
+                            kind.parse("t", {f.name: x})
+                    continue
                 for x in (f.lo, f.hi):
                     assert kind.parse("t", {f.name: x}) is not None
                 for x in (f.lo - max(1e-3, abs(f.lo) * 1e-3), f.hi + max(1e-3, abs(f.hi) * 1e-3)):

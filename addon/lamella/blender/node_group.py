@@ -26,7 +26,7 @@ import bpy
 from ..core import luts
 from ..core.backends.ir.sockets import by_param, sockets
 from ..core.backends.nodes.partition import partition
-from ..core.backends.nodes.plan import TARGETS, Out, Plan, input_name, value_type
+from ..core.backends.nodes.plan import INSIDE_INPUT, TARGETS, Out, Plan, input_name, value_type
 from ..core.param_id import normal_socket
 from .osl_compile import set_socket
 
@@ -452,6 +452,11 @@ def build_group(plan: Plan, name: str, tree=None):
     for k, leaf in enumerate(plan.leaves):
         if leaf in ("wi_x", "wi_y", "wi_z"):
             leaf_src[-1 - k] = wi[("wi_x", "wi_y", "wi_z").index(leaf)]
+            continue
+        if leaf == INSIDE_INPUT:  # a solid dielectric base's far side: seen from inside it
+            geometry = nt.nodes.new("ShaderNodeNewGeometry")
+            geometry.label, geometry.location = "seen from inside: the back faces", (-X_STEP, 700.0)
+            leaf_src[-1 - k] = geometry.outputs["Backfacing"]
             continue
         sk, ch = convert[leaf]  # the parameter from its socket (panel units)
         sock = gin.outputs[sk.name]

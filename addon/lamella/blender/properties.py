@@ -12,6 +12,8 @@ Field types map to properties as follows (Blender's conventions at the UI bounda
   soft range as the slider range;
 - ``angle``: the same with the ANGLE subtype (stored in radians, shown in degrees);
 - ``rgb``: a 3-vector, COLOR subtype for reflectances (``Field.color``);
+- ``bool``: a BoolProperty (a choice of the layer's structure, such as a thin-walled base: never
+  a socket of the Lamella node);
 - ``roughness`` (GGX alpha in the stack): Blender's roughness r with alpha = r^2, as a value along
   the tangent ``<name>``, an ``<name>_anisotropic`` switch and ``<name>_y`` across it.
 
@@ -27,7 +29,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        IntProperty, PointerProperty, StringProperty)
 
 from ..core.models import MODELS
-from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.layers import ANGLE, BASE_KINDS, BOOL, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import r_from_alpha
 from . import kind_hooks, recompile
 from .stack_props import unique_label
@@ -75,6 +77,8 @@ def field_properties(f, update=_on_edit) -> dict:
     if f.type in (FLOAT, ANGLE):
         return {f.name: FloatProperty(name=label, description=desc, default=float(f.default),
                                       subtype="ANGLE" if f.type == ANGLE else "NONE", update=update, **_limits(f))}
+    if f.type == BOOL:
+        return {f.name: BoolProperty(name=label, description=desc, default=bool(f.default), update=update)}
     if f.type == RGB:
         return {f.name: FloatVectorProperty(name=label, description=desc, size=3, default=tuple(f.default),
                                             subtype="COLOR" if f.color else "NONE", update=update, **_limits(f))}

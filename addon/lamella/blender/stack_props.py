@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 import uuid
 
-from ..core.layers import ANGLE, BASE_KINDS, COAT_KINDS, FLOAT, RGB, ROUGHNESS
+from ..core.layers import ANGLE, BASE_KINDS, BOOL, COAT_KINDS, FLOAT, RGB, ROUGHNESS
 from ..core.param_id import alpha_from_r, r_from_alpha
 from ..core.stack import Stack
 from ..core.stack_format import FORMAT
@@ -29,7 +29,9 @@ def kind_values(kind, pg) -> dict:
     """One layer's JSON dict (type and every schema field) from its kind's PropertyGroup."""
     d = {"type": kind.type}
     for f in kind.fields:
-        if f.type in (FLOAT, ANGLE):
+        if f.type == BOOL:
+            d[f.name] = bool(getattr(pg, f.name))
+        elif f.type in (FLOAT, ANGLE):
             d[f.name] = _r7(getattr(pg, f.name))
         elif f.type == RGB:
             d[f.name] = [_r7(x) for x in getattr(pg, f.name)]
@@ -47,7 +49,7 @@ def write_kind(kind, pg, layer) -> None:
     ``written`` hook, ``kind_hooks``)."""
     for f in kind.fields:
         v = getattr(layer, f.name)
-        if f.type in (FLOAT, ANGLE):
+        if f.type in (FLOAT, ANGLE, BOOL):
             setattr(pg, f.name, v)
         elif f.type == RGB:
             setattr(pg, f.name, tuple(v))

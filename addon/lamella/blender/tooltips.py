@@ -3,7 +3,7 @@ the Lamella node's input, from the layer-kind schema (``schema.Field``: descript
 written once for both."""
 from __future__ import annotations
 
-from ..core.layers import ROUGHNESS
+from ..core.layers import BOOL, ROUGHNESS
 
 # a schema unit in words, as a tooltip says it
 UNIT_WORDS = {
@@ -26,5 +26,7 @@ def field_tooltip(f) -> str:
     """The schema's description, its unit and its hard limits (what the parser accepts)."""
     if f.type == ROUGHNESS:
         return roughness_tooltip(f)
+    if f.type == BOOL:
+        return f"{f.description[:1].upper()}{f.description[1:]}"
     unit = f" [{UNIT_WORDS.get(f.unit, f.unit)}]" if f.unit else ""
     return f"{f.description[:1].upper()}{f.description[1:]}{unit}. Accepted: {f.limits_text()}"

@@ -15,6 +15,7 @@ from . import lobe_kinds
 from .backends.numpy_ops import NumpyOps
 from .models import MODELS as _REGISTRY
 from .models import UnsupportedStack, resolve, run_model
+from .models.sides import OUTSIDE
 from .models.types import Lobe
 from .layer_normals import frame_key, tilts
 from .stack import Stack
@@ -45,7 +46,7 @@ def _dirs(w, dtype) -> np.ndarray:
     return w
 
 
-def _run(stack, wi, model, dtype):
+def _run(stack, wi, model, dtype, seen_from=OUTSIDE):
     stack = Stack.coerce(stack)
     v = resolve(model, stack)
     ops = NumpyOps(dtype)
@@ -54,7 +55,7 @@ def _run(stack, wi, model, dtype):
     # a partly covering coat's lobes weigh the fraction of the surface they are on
     ls = [lobe if _is_one(lobe.cover) else
           Lobe(lobe.weight * lobe.cover, lobe.alpha_x, lobe.alpha_y, lobe.rotation, lobe.kind, lobe.eta)
-          for lobe in run_model(ops, stack, wi_vals, model)]
+          for lobe in run_model(ops, stack, wi_vals, model, seen_from=seen_from)]
     return ops, v, wi_vals, ls
 
 
@@ -66,8 +67,11 @@ def _full(x, n, dtype):
     return np.broadcast_to(np.asarray(x, dtype=dtype), (n,))
 
 
-def lobes(stack, wi, model="auto", dtype=np.float64) -> Lobes:
-    ops, v, wi_vals, ls = _run(stack, wi, model, dtype)
+def lobes(stack, wi, model="auto", dtype=np.float64, seen_from=OUTSIDE) -> Lobes:
+    """The model's lobes for view directions ``wi`` ((3,) or (N, 3), upper hemisphere of the local
+    frame). ``seen_from="inside"``: the surface seen from within a solid dielectric base (the far
+    side of a glass object: ``models.sides``); the same as "outside" for an opaque or thin-walled base."""
+    ops, v, wi_vals, ls = _run(stack, wi, model, dtype, seen_from)
     n = wi_vals[0].shape[0]
     dt = ops.dtype
     return Lobes(
@@ -80,7 +84,8 @@ def lobes(stack, wi, model="auto", dtype=np.float64) -> Lobes:
     )
 
 
-def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True, normals=None) -> np.ndarray:
+def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True, normals=None,
+             seen_from=OUTSIDE) -> np.ndarray:
     """f(wi, wo) * |wo.z| as an (N, 3) array (wi broadcasts against wo). ``deltas=False`` leaves
     out the lobes of zero roughness (smooth interfaces), which a pointwise comparison cannot see:
     evaluated at the roughness floor they are a spike at the one direction nearest the mirror, and
@@ -91,13 +96,13 @@ def evaluate(stack, wi, wo, model="auto", dtype=np.float64, deltas: bool = True,
     them: the model's energies are the stack's at ``wi`` about the shading normal, and each lobe
     is the closure the shaders make about the normal its layer and the tilted layers above it
     give it (``layer_normals``; its tangent the shading tangent made orthogonal to it), its cosine
-    factor about it too."""
+    factor about it too. ``seen_from``: as for ``lobes``."""
     wo = _dirs(wo, dtype)
     wi_given = _dirs(wi, dtype)
     wi = np.broadcast_to(wi_given, wo.shape)
     # one view for every outgoing direction (a BRDF slice): the model runs once, its lobes
     # broadcast against ``wo`` (a look-up at one point gives the same bits as one lane of many)
-    ops, v, wi_vals, ls = _run(stack, wi_given if wi_given.shape[0] == 1 else wi, model, dtype)
+    ops, v, wi_vals, ls = _run(stack, wi_given if wi_given.shape[0] == 1 else wi, model, dtype, seen_from)
     if not deltas:
         ls = [lobe for lobe in ls if not (lobe_kinds.kind(lobe.kind).rough and np.all(np.asarray(lobe.alpha_x) == 0.0)
                                           and np.all(np.asarray(lobe.alpha_y) == 0.0))]
@@ -139,12 +144,13 @@ def _in(frame, w, ops):
     return tuple(ops.input(f"w_{k}", np.sum(w * axis, -1)) for k, axis in enumerate(frame))
 
 
-def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64) -> np.ndarray:
+def albedo(stack, wi, model="auto", side="reflected", dtype=np.float64, seen_from=OUTSIDE) -> np.ndarray:
     """Total energy the model sends back up (``side="reflected"``: the sum of its lobes'
-    energies) or through a dielectric base (``"transmitted"``; zero for opaque bases)."""
+    energies) or through a dielectric base (``"transmitted"``; zero for opaque bases), for a view
+    ``seen_from`` either side of the surface (``lobes``)."""
     if side not in ("reflected", "transmitted"):
         raise ValueError(f"side must be 'reflected' or 'transmitted', got {side!r}")
-    lb = lobes(stack, wi, model, dtype)
+    lb = lobes(stack, wi, model, dtype, seen_from)
     sel = [k for k, name in enumerate(lb.kinds) if lobe_kinds.kind(name).side == side]
     return lb.weight[:, sel, :].sum(1)
 

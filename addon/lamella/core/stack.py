@@ -32,6 +32,9 @@ class Stack:
     # a part of a stack (``part``): the index each coat has in the stack it was taken from, so its
     # parameters keep their names (``coat2_ior`` stays coat 2's); empty: the coats' own positions
     origin: tuple[int, ...] = ()
+    # a view of a stack (``models.sides``: the far side of a solid dielectric base, a thin sheet
+    # written out): how it was made and from what; its parameters are that stack's. None: as drawn
+    view: object = None
 
     # ----------------------------------------------------------------- construction
     @classmethod

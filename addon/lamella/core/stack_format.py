@@ -16,7 +16,7 @@ from typing import Any, Callable, Mapping
 
 from .layers.schema import StackError
 
-FORMAT = 2  # the format this Lamella writes
+FORMAT = 3  # the format this Lamella writes
 KEY = "format"
 
 # What each version changed, newest last: the reference page prints it.
@@ -26,6 +26,8 @@ CHANGES: dict[int, str] = {
     2: "Coats gain `coverage`, the fraction of the surface a coat covers (0 to 1; a format-1 coat covers all of it, "
        "coverage 1); coats, conductor and dielectric bases gain a thin film on their interface, `film_thickness` "
        "(nm; 0, no film, as in format 1) and `film_ior`.",
+    3: "Dielectric bases gain `thin_walled` (false: the substrate is solid, and a closed mesh's far side shows the "
+       "stack from inside it; true: a thin sheet, a pane or a bubble). A format-2 dielectric base reads as solid.",
 }
 
 
@@ -36,8 +38,16 @@ def _coverage_whole(d: dict) -> dict:
     return dict(d)
 
 
+def _solid_glass(d: dict) -> dict:
+    """Format 2 to 3: a dielectric base without ``thin_walled`` is solid, its default, so the stack
+    passes as it is. (Format-2 shaders drew the stack as seen from outside on both faces of a
+    closed mesh, which no glass object does; a base of index 1 under a glass coat, the way a pane
+    was written, looks the same either way.)"""
+    return dict(d)
+
+
 # v -> the function taking a format-v stack dict to format v + 1
-MIGRATIONS: dict[int, Callable[[dict], dict]] = {1: _coverage_whole}
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {1: _coverage_whole, 2: _solid_glass}
 
 
 def version_of(d: Mapping[str, Any]) -> int:

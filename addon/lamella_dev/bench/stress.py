@@ -46,13 +46,14 @@ from pathlib import Path
 import numpy as np
 
 from lamella.core import api as core_api
-from lamella.core.backends.ir.closures import declared_params, structure_of, trace_closures
+from lamella.core.backends.ir.closures import INSIDE_INPUT, declared_params, structure_of, trace_closures
 from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.layers import BASE_KINDS
 from lamella.core.layers.film import FILM_IOR_MAX, FILM_IOR_MIN, FILM_THICKNESS_MAX
 from lamella.core.models.coverage import MAX_PARTIAL
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
 from lamella.core.models import UnsupportedStack
+from lamella.core.models.sides import SIDES
 from lamella.core.stack import MAX_COATS, Stack
 from .paths import BENCH_DIR
 from .page import write_page
@@ -120,7 +121,8 @@ def draw_structure(rng) -> dict:
     for i in rng.permutation(n)[:int(rng.integers(0, MAX_PARTIAL + 1))] if n else ():
         coats[int(i)]["partial"] = rng.random() < 0.5  # a coat on part of the surface (models.coverage)
     base = str(rng.choice(list(BASE_KINDS)))
-    return {"coats": coats, "base": base, "aniso": rng.random() < 0.3, "film": rng.random() < 0.2}
+    return {"coats": coats, "base": base, "aniso": rng.random() < 0.3, "film": rng.random() < 0.2,
+            "thin_walled": base == "dielectric" and rng.random() < 0.3}
 
 
 def draw_stack(rng, structure: dict) -> dict:
@@ -149,6 +151,7 @@ def draw_stack(rng, structure: dict) -> dict:
         base["k"] = [_pick(rng, [0.0, 1e-6, 10.0, 1e6], lambda: rng.uniform(0.0, 10.0)) for _ in range(3)]
     elif kind == "dielectric":
         base["ior"] = _ior(rng)
+        base["thin_walled"] = bool(structure.get("thin_walled"))
     else:
         base["albedo"] = [_pick(rng, [0.0, 1.0], rng.random) for _ in range(3)]
     if kind != "diffuse":
@@ -194,6 +197,20 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
     outs = []
     for c in traced.covered:  # weights times the fraction of the surface each is on (models.coverage)
         outs += [*c.lobe.weight, *c.weight, *c.args.values()]
+    bad = np.zeros(n * d, dtype=bool)
+    worst = np.zeros(n * d, dtype=np.float64)
+    # a solid dielectric base is seen from inside on a mesh's far side (``models.sides``)
+    for inside in ((0.0, 1.0) if INSIDE_INPUT in t.inputs else (0.0,)):
+        values[INSIDE_INPUT] = dtype(inside)
+        side_bad, total = _check_side(traced, t, ops, outs, values, wo, n, d, dtype)
+        bad |= side_bad | ~(total <= 1.0 + ALBEDO_SLACK[dtype]).all(-1)
+        finite = np.isfinite(total).all(-1)
+        worst = np.maximum(worst, np.where(finite, total.max(-1) - 1.0, 0.0))
+    return bad.reshape(n, d).any(1), float(max(worst.max(initial=0.0), 0.0))
+
+
+def _check_side(traced, t, ops, outs, values, wo, n, d, dtype):
+    """(whether each direction fails, the total energy there) for one side of the surface."""
     with np.errstate(all="ignore"):
         got = t.evaluate(outs, ops, values)
     env = {id(x): np.broadcast_to(np.asarray(v, dtype=dtype), (n * d,)) for x, v in zip(outs, got)}
@@ -217,9 +234,7 @@ def check_batch(stacks: list, model: str, dtype, wi: np.ndarray, wo: np.ndarray)
             f = np.broadcast_to(np.asarray(c.kind.cos_of_args(ops, args, wi_o, wo_o)), (n * d,))
         on = weight.max(-1) > 0
         bad |= on & (~np.isfinite(f) | (f < 0))
-    bad |= ~(total <= 1.0 + ALBEDO_SLACK[dtype]).all(-1)
-    finite = np.isfinite(total).all(-1)
-    return bad.reshape(n, d).any(1), float(np.max(total[finite] - 1.0, initial=0.0))
+    return bad, total
 
 
 def check_stack(stack, model: str, dtype, wi: np.ndarray, wo: np.ndarray) -> bool:
@@ -234,10 +249,11 @@ def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
     from lamella.core.backends.ir.staging import stage
 
     try:
-        f = evaluate_staged(stage(stack), wi, wo, np.float32)
+        st = stage(stack)
+        fs = [evaluate_staged(st, wi, wo, np.float32, seen_from=side) for side in SIDES]
     except FloatingPointError:
         return True
-    return not (np.isfinite(f).all() and (f >= 0).all())
+    return not all(np.isfinite(f).all() and (f >= 0).all() for f in fs)
 
 
 def shrink(stack: dict, fails, budget: int = 80) -> dict:

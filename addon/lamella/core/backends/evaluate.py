@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import luts
+from ..models.sides import INSIDE, OUTSIDE, SIDES
+from .ir.closures import INSIDE_INPUT
 from .ir.staging import ENERGY_EPS, VIEW_INPUTS, Staged, StagedOps
 from .ir.trace import Expr
 from .nodes.plan import MATH_IN, Out, Plan
@@ -17,12 +19,13 @@ from .nodes.plan import MATH_IN, Out, Plan
 
 # ---------------------------------------------------------------- staged shaders
 def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = None,
-                    target: str = "cycles") -> np.ndarray:
+                    target: str = "cycles", seen_from: str = OUTSIDE) -> np.ndarray:
     """f(wi, wo) |wo.z| of the staged shader (numpy, ``dtype``) for directions in the shading
     frame (N, 3): what the emitted shaders compute, to hold them to the traced model. ``target``
     "eevee": each anisotropic lobe as the isotropic stand-ins the node group draws in EEVEE
     (``Staged.stand_ins``), the closures as EEVEE's Glossy BSDF would read them otherwise being
-    EEVEE's business."""
+    EEVEE's business. ``seen_from``: the side of the surface the view is on (``models.sides``:
+    "inside", where the shaders see a back face, draws a solid dielectric base from within)."""
     wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
     wo = np.asarray(wo, dtype=np.float64).reshape(-1, 3)
     wi = np.broadcast_to(wi, wo.shape)
@@ -31,6 +34,9 @@ def evaluate_staged(st: Staged, wi, wo, dtype=np.float32, values: dict | None = 
     ops = StagedOps(st.table, dtype, st.axis_tables)
     dtype = ops.dtype.type
     vals = {n: wi[:, k].astype(dtype) for k, n in enumerate(VIEW_INPUTS)}
+    if seen_from not in SIDES:
+        raise ValueError(f"seen_from must be one of {', '.join(SIDES)}, got {seen_from!r}")
+    vals[INSIDE_INPUT] = dtype(seen_from == INSIDE)
     vals.update(st.params)
     if values:
         vals.update(values)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from ..registry import Registry
 from . import coat, conductor, dielectric, diffuse
 from .params import BaseResponse
-from .schema import ANGLE, FLOAT, RGB, ROUGHNESS, Field, LayerKind, StackError
+from .schema import ANGLE, BOOL, FLOAT, RGB, ROUGHNESS, Field, LayerKind, StackError
 
 COAT_KINDS: Registry[LayerKind] = Registry("coat kind", key=lambda kind: kind.type)
 BASE_KINDS: Registry[LayerKind] = Registry("base kind", key=lambda kind: kind.type, shares_names_with=(COAT_KINDS,))
@@ -45,4 +45,4 @@ Diffuse = diffuse.Diffuse
 Dielectric = dielectric.Dielectric
 
 __all__ = ["COAT_KINDS", "BASE_KINDS", "LayerKind", "Field", "BaseResponse", "StackError", "Coat", "Conductor",
-           "Diffuse", "Dielectric", "FLOAT", "RGB", "ROUGHNESS", "ANGLE", "register", "unregister"]
+           "Diffuse", "Dielectric", "FLOAT", "RGB", "ROUGHNESS", "ANGLE", "BOOL", "register", "unregister"]

@@ -1,11 +1,16 @@
-"""The dielectric base: a transmissive substrate (a glass half-space) of absolute index ``ior``
-under a rough interface; light crossing it leaves the stack downward (coated glass; with
-``ior`` 1 under a glass coat, a plate with air on both sides)."""
+"""The dielectric base: a transmissive substrate of absolute index ``ior`` under a rough
+interface; light crossing it leaves the stack downward. The substrate is solid (glass, water,
+a gem): on a closed mesh, light that entered meets the far side from inside the substrate, which
+shows it the layers in the reverse order and total internal reflection (``models.sides``).
+``thin_walled``: the substrate is a thin sheet instead (a pane, a bubble, a film on glass; OpenPBR's
+``geometry_thin_walled``): its back face has the same roughness, light crossing it leaves in the
+direction it came, and both faces of a mesh show the stack as drawn. With ``ior`` 1 under a glass
+coat, a plate with air on both sides."""
 from __future__ import annotations
 
 from . import film
 from .params import BaseResponse, field_param, roughness_params
-from .schema import ANGLE, ANGLE_MAX, FLOAT, IOR_MAX, IOR_MIN, ROUGHNESS, Field, layer_kind
+from .schema import ANGLE, ANGLE_MAX, BOOL, FLOAT, IOR_MAX, IOR_MIN, ROUGHNESS, Field, layer_kind
 from ..models.rgb import RGB as RGBValue
 
 FIELDS = (
@@ -16,6 +21,9 @@ FIELDS = (
     Field("rotation", ANGLE, 0.0, "turn of the anisotropy axes about the normal", "rad",
           lo=-ANGLE_MAX, hi=ANGLE_MAX, soft=(-3.141592653589793, 3.141592653589793)),
     *film.FIELDS,
+    Field("thin_walled", BOOL, False, "a thin sheet of the substrate (a pane, a bubble) instead of a solid: light "
+          "crossing it keeps its direction, and both faces show the stack as drawn", "", lo=0.0, hi=1.0,
+          label="Thin Walled"),
 )
 
 

@@ -49,6 +49,7 @@ FLOAT = "float"  # a finite number
 RGB = "rgb"  # three finite numbers (a single number is splatted)
 ROUGHNESS = "roughness"  # GGX alpha: a number (isotropic) or [alpha_x, alpha_y]; stored as a pair
 ANGLE = "angle"  # radians, any finite value
+BOOL = "bool"  # true or false: a choice of the layer's structure (never a shader input)
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,7 @@ class Field:
         return self.label or self.name.replace("_", " ").title()
 
     def limits_text(self) -> str:
-        return f"[{self.lo:g}, {self.hi:g}]"
+        return "true or false" if self.type == BOOL else f"[{self.lo:g}, {self.hi:g}]"
 
     def check_bounds(self, layer: str, x: float, shown) -> None:
         x32 = _f32(x)
@@ -96,6 +97,10 @@ class Field:
 
     # ----------------------------------------------------------------- parse / serialise
     def parse(self, layer: str, v: Any):
+        if self.type == BOOL:
+            if isinstance(v, bool) or type(v).__name__ == "bool_":
+                return bool(v)
+            raise StackError(layer, self.name, f"expected true or false, got {type(v).__name__} {_short(v, 40)}")
         if self.type == FLOAT or self.type == ANGLE:
             x = _number(layer, self.name, v)
             self.check_bounds(layer, x, x)
@@ -273,4 +278,4 @@ def _frozen_default(f: Field):
     return f.default
 
 
-__all__ = ["StackError", "COAT_ATTRIBUTES", "FLOAT32_MAX", "IOR_MIN", "IOR_MAX", "ANGLE_MAX", "THICKNESS_MAX", "SIGMA_MAX", "G_MAX", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE"]
+__all__ = ["StackError", "COAT_ATTRIBUTES", "FLOAT32_MAX", "IOR_MIN", "IOR_MAX", "ANGLE_MAX", "THICKNESS_MAX", "SIGMA_MAX", "G_MAX", "Field", "LayerKind", "layer_kind", "FLOAT", "RGB", "ROUGHNESS", "ANGLE", "BOOL"]

@@ -16,6 +16,7 @@ from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_RE
 from .endf import ENDF
 from .rgb import RGB
 from .roughness import MAPPINGS
+from .sides import OUTSIDE
 from .transfer_matrix import TransferMatrix
 from .types import Lobe, UnsupportedStack
 
@@ -112,11 +113,12 @@ def variant(name: str, mapping=None, tir: bool | None = None, **refinements) -> 
     return replace(v, **changes)
 
 
-def run_model(ops, stack, wi, model, partial=None) -> list[Lobe]:
+def run_model(ops, stack, wi, model, partial=None, seen_from=OUTSIDE) -> list[Lobe]:
     """The lobes of ``stack`` under ``model`` (a name, ``"auto"`` or a model object), with the
     partly covering coats (``coverage.partial_coats``; ``partial`` overrides) mixed in: each
-    lobe's ``cover`` is the fraction of the surface it is on."""
-    return coverage.run(ops, stack, wi, model, resolve, partial)
+    lobe's ``cover`` is the fraction of the surface it is on. ``seen_from``: the side of the
+    surface the view is on (``sides``: "inside" sees a solid dielectric base from within)."""
+    return coverage.run(ops, stack, wi, model, resolve, partial, seen_from)
 
 
 __all__ = ["Lobe", "UnsupportedStack", "Variant", "MODELS", "VARIANTS", "register", "unregister", "choose_auto",

@@ -30,6 +30,7 @@ import itertools
 from ..layer_normals import coats_above
 from ..layers.schema import StackError
 from ..param_id import layer_label, slots, socket_name
+from .sides import OUTSIDE, placed, view_of
 from .types import Lobe, UnsupportedStack
 
 FIELD = "coverage"
@@ -67,33 +68,37 @@ def parts(ops, stack, partial):
         yield w, stack.part(sorted(whole | {i for i, here in zip(partial, present) if here}))
 
 
-def run(ops, stack, wi, model, resolve, partial=None) -> list[Lobe]:
+def run(ops, stack, wi, model, resolve, partial=None, seen_from=OUTSIDE) -> list[Lobe]:
     """The lobes of ``stack`` under ``model`` (a name, ``"auto"``, or a model object; ``resolve``
     turns it into a model for a stack), each subset of the ``partial`` coats (default:
-    ``partial_coats(stack)``) run as its own stack, its lobes' ``cover`` the fraction it covers."""
+    ``partial_coats(stack)``) run as its own stack, its lobes' ``cover`` the fraction it covers;
+    seen from ``seen_from`` (``models.sides``: "inside" a solid dielectric base)."""
     if partial is None:
         partial = partial_coats(stack)
     if not partial:
-        return _placed(stack, resolve(model, stack).run(ops, stack, wi))
+        seen = view_of(stack, seen_from)
+        return _placed(seen, resolve(model, seen).run(ops, seen, wi))
     out = []
     for k, (w, part) in enumerate(parts(ops, stack, partial)):
+        seen = view_of(part, seen_from)
         try:
-            lobes = resolve(model, part).run(ops, part, wi)
+            lobes = resolve(model, seen).run(ops, seen, wi)
         except UnsupportedStack:
             if k == 0:  # every coat present: the stack itself, which the model must represent
                 raise
-            lobes = resolve("auto", part).run(ops, part, wi)
+            lobes = resolve("auto", seen).run(ops, seen, wi)
         for lobe in lobes:
             lobe.cover = w if isinstance(lobe.cover, float) and lobe.cover == 1.0 else lobe.cover * w
-        out += _placed(part, lobes)
+        out += _placed(seen, lobes)
     return out
 
 
 def _placed(stack, lobes):
-    """``lobes`` of ``stack`` (a part of one), each told the coats present above its layer."""
+    """``lobes`` of ``stack`` (a part of one, or a view of that: ``models.sides``), each told the
+    coats present above its layer."""
     for lobe in lobes:
         lobe.above = coats_above(stack, lobe.normal)
-    return lobes
+    return placed(stack, lobes)
 
 
 __all__ = ["FIELD", "MAX_PARTIAL", "partial_coats", "cover_params", "parts", "run"]

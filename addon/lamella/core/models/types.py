@@ -46,7 +46,12 @@ def layer_normal(stack, index: int) -> str:
 
 def layer_params(ops, stack):
     """Every per-layer parameter as a backend value (a shader input when traced), by the layer
-    kinds' own ``params``."""
+    kinds' own ``params``; for a view of a stack (``Stack.view``, ``models.sides``), that stack's
+    parameters as the view arranges them."""
+    if stack.view is not None:
+        from .sides import view_params
+
+        return view_params(ops, stack.view, *layer_params(ops, stack.view.original))
     coat_slots, base_slot = slots(stack)
     coats = [c.kind.params(ops, slot, c) for slot, c in zip(coat_slots, stack.coats)]
     return coats, stack.base.kind.params(ops, base_slot, stack.base)

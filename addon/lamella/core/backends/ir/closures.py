@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 
 from ... import lobe_kinds
 from ...layer_normals import frame_key, tilts
-from ...models import resolve, run_model
+from ...models import resolve, run_model, sides
 from ...models.coverage import cover_params, partial_coats
 from ...param_id import split_normals
 from ...models.types import layer_params
@@ -83,8 +83,10 @@ def structure_of(stack, model: str = "auto", partial=None) -> tuple:
     structure trace to the same graph with other defaults. The partly covering coats
     (``partial``, default those with coverage below 1: ``models.coverage``) declare a coverage
     parameter each, so they show in the names too."""
-    return (model, stack.base.type, len(stack.coats), tuple(declared_params(stack, partial)))
+    return (model, stack.base.type, len(stack.coats), tuple(declared_params(stack, partial)), sides.faces(stack))
 
+
+INSIDE_INPUT = "inside"  # the shading input that is 1 where the surface is seen from behind (OSL's backfacing())
 
 _TRACES: dict = {}  # structure_of -> TracedClosures: a value edit does not trace again
 _TRACES_KEPT = 16
@@ -122,12 +124,25 @@ def _trace(stack, model: str, partial=()) -> TracedClosures:
     t = Tracer()
     wi = tuple(t.input(n) for n in ("wi_x", "wi_y", "wi_z"))
     lobes = run_model(t, stack, wi, model, partial)
+    labels = [f"lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
+              for k, lobe in enumerate(lobes)]
+    if sides.is_solid(stack):
+        # the far side of a solid dielectric base, seen from inside it where the surface faces away
+        # from the view (``INSIDE_INPUT``, 1 there): each side's lobes weigh on their own side only,
+        # as a coverage mask's parts do (``staging`` keeps them apart)
+        inside = t.input(INSIDE_INPUT)
+        back = run_model(t, stack, wi, model, partial, seen_from=sides.INSIDE)
+        for lobe in lobes:
+            lobe.cover = lobe.cover * (1.0 - inside)
+        for lobe in back:
+            lobe.cover = lobe.cover * inside
+        labels += [f"lobe {k} ({lobe.kind}): seen from inside the base" for k, lobe in enumerate(back, len(lobes))]
+        lobes = lobes + back
     t.set_scope("closures")
     closures = []
-    for k, lobe in enumerate(lobes):
+    for k, (lobe, label) in enumerate(zip(lobes, labels)):
         kind = lobe_kinds.kind(lobe.kind)
         scale = kind.scale(t, lobe, wi)
-        label = f"lobe {k} ({lobe.kind}): {'coat ' + str(k) if k < len(stack.coats) else 'base'}"
         closures.append(Closure(lobe, kind, tuple(c * scale for c in lobe.weight), kind.args(t, lobe, wi), label,
                                 lobe.cover, lobe.normal, tilts(stack, lobe.normal, lobe.above or (), lobe.kind)))
     covered = [c.covered(t) for c in closures]

@@ -44,7 +44,7 @@ from ...lobe_kinds import isotropic_fit
 from ...stack import Stack
 from ..numpy_ops import NumpyOps
 from . import lobe_budget
-from .closures import Closure, trace_closures
+from .closures import INSIDE_INPUT, Closure, trace_closures
 from .live_axes import axis_nodes, axis_of, lookup_axes
 from ...param_id import normal_socket, split_normals
 from .sockets import params_of, socket_names, sockets
@@ -295,9 +295,12 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     frame = "view" if isotropic(stack) else "shading"
     if grid is not None and frame == "view" and grid.n_phi != 1:
         raise ValueError("a stack staged in the view frame has one azimuth node")
-    live_ids = t.reached_by(live)
+    # the side of the mesh (``closures.INSIDE_INPUT``: a solid dielectric base's far side) weighs
+    # its lobes as a linked coverage mask does: a live factor of their closures' weights
+    sided = _reached_by_inputs(t, (INSIDE_INPUT,))
+    live_ids = t.reached_by(live) | sided
     axes = {p: ax for p in live if live_axes > 0 and (ax := axis_of(stack, t.ids[p], defaults[p])) is not None}
-    traced_ids = _traced_part(t, live, axes, live_axes) if axes else live_ids
+    traced_ids = (_traced_part(t, live, axes, live_axes) | sided) if axes else live_ids
 
     def live_expr(x):
         return isinstance(x, Expr) and id(x) in live_ids
@@ -417,6 +420,8 @@ def stage(stack, model: str = "auto", live=(), budget="auto", grid: ViewGrid | N
     for name, x in zip(VIEW_INPUTS, wi2):
         if name in t.inputs:
             env[id(t.inputs[name])] = x
+    if INSIDE_INPUT in t.inputs:
+        env[id(t.inputs[INSIDE_INPUT])] = t2.input(INSIDE_INPUT)
     t2.set_scope("live")
     # a live lobe's roughness read from a table over a linked roughness: tabulated as its fourth
     # root, which the roughness axis spaces evenly near 0 (``live_axes``: alpha = sin^4 there), so
@@ -535,15 +540,22 @@ def _reached_by_angles(t: Tracer) -> frozenset[int]:
 
 def _reached_by_view(t: Tracer) -> frozenset[int]:
     """The ids of the nodes the view direction (``VIEW_INPUTS``) reaches."""
+    return _reached_by_inputs(t, VIEW_INPUTS)
+
+
+def _reached_by_inputs(t: Tracer, names) -> frozenset[int]:
+    """The ids of the nodes the shading inputs ``names`` reach."""
+    names = tuple(names)
+
     def build():
         out: set[int] = set()
         for e in t.nodes:
-            if (e.op == "input" and e.args[0] in VIEW_INPUTS) or any(
+            if (e.op == "input" and e.args[0] in names) or any(
                     a.__class__ is Expr and id(a) in out for a in e.args):
                 out.add(id(e))
         return frozenset(out)
 
-    return t.memo(("reached_by_view",), build)
+    return t.memo(("reached_by_inputs", names), build)
 
 
 def _axis_tables(t: Tracer, grid: ViewGrid, tables: dict, exprs_of: dict) -> dict:

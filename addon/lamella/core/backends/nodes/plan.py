@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..ir.closures import INSIDE_INPUT  # a leaf: 1 where the surface is seen from behind (a solid glass's far side)
+
 MATH_IN = ("Value", "Value_001", "Value_002")  # socket identifiers of a Math node's inputs
 TABLE_IMAGE = ".lamella_table"
 TABLE_SIZE = 8192  # texels: the material table image's widest and tallest (GPUs take 16384; older ones 8192)

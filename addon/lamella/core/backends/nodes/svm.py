@@ -2,7 +2,7 @@
 plan's live values (``live_values``), and the measured limits behind the panel's warning."""
 from __future__ import annotations
 
-from .plan import Out, Plan
+from .plan import INSIDE_INPUT, Out, Plan
 
 SVM_STACK = 255  # floats Cycles' SVM keeps for the live values of one shader
 SVM_HEADROOM = 40  # measured: plans peaking at up to 162 live values render, one at 230 runs out
@@ -18,7 +18,7 @@ def live_values(plan: Plan) -> int:
     (the BSDF nodes read theirs at the end). Parameters are left out: Cycles folds nodes of
     unlinked group inputs into constants. Cycles' SVM compiles the nested groups in this order
     and holds the live values in a stack of ``SVM_STACK`` floats."""
-    view = {-1 - k for k, name in enumerate(plan.leaves) if name.startswith("wi_")}
+    view = {-1 - k for k, name in enumerate(plan.leaves) if name.startswith("wi_") or name == INSIDE_INPUT}
     varying: set[int] = set()
     for i, n in enumerate(plan.nodes):
         if any(isinstance(v, Out) and (v.node in view or v.node in varying) for v in n.inputs.values()):

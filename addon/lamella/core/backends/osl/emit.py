@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import luts
-from ..ir.closures import trace_closures
+from ..ir.closures import INSIDE_INPUT, trace_closures
 from ...lobe_kinds.kind import FRAME_KEYS
 from ...param_id import normal_socket, split_normals
 from ..ir.sockets import by_param, sockets
@@ -469,6 +469,8 @@ def osl_shader(stack, model: str = "auto", name: str | None = None, lut_dir: str
         "    float wi_y = dot(V, Bn);",
         "    float wi_z = dot(V, Normal);",
     ]
+    if INSIDE_INPUT in t.inputs:  # a solid dielectric base: its far side is seen from inside it
+        body.append(f"    float {INSIDE_INPUT} = backfacing() ? 1.0 : 0.0;")
     conv = by_param(traced.tracer.ids)
     read = {e.args[0] for e in t.live_nodes(outputs) if e.op == "param" and conv[e.args[0]][0].convert != "identity"}
     if read:
