@@ -17,7 +17,7 @@ import pytest
 from lamella.core.stack import Stack
 
 pytest.importorskip("bpy")
-from lamella_dev.render import assign_material, build_scene, render_scene, sphere_material  # noqa: E402
+from lamella_dev.render import assign_material, build_scene, render_scene, sphere_material, use_eevee  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("solid_glass")
 
@@ -86,7 +86,7 @@ def _principled_glass(sc, sphere):
     sc.cycles.shading_system = False
 
 
-def _render_checker(what, seed: int = 0):
+def _render_checker(what, seed: int = 0, eevee: bool = False):
     sc, sphere = _checker_scene(seed)
     if what == "principled":
         _principled_glass(sc, sphere)
@@ -94,6 +94,10 @@ def _render_checker(what, seed: int = 0):
         sphere.hide_render = True
     else:
         assign_material(sphere, Stack.coerce(what[1]), what[0])
+    if eevee:  # ray-traced refraction, the glass's material alone (the board must stay visible to it)
+        use_eevee(sc)
+        sc.eevee.use_raytracing = True
+        sphere.data.materials[0].use_raytrace_refraction = True
     px = render_scene(sc)[0]
     assert np.isfinite(px).all() and (px >= 0).all()
     return px
@@ -110,6 +114,16 @@ def test_a_glass_ball_refracts_as_principled_glass(principled, engine):
     floor = _rel(other, ref, 1)
     got = _rel(_render_checker((engine, GLASS)), ref, 1)
     assert got <= max(1.5 * floor, 0.05), (engine, got, floor)
+
+
+def test_a_glass_ball_refracts_in_eevee_as_principled_glass_does(addon):
+    """EEVEE refracts once per surface it draws and follows the light through the object's
+    thickness (the material output's Thickness unlinked: the object's): a solid base leaves it so
+    and gives EEVEE a refraction at its own index. Measured 0.039 (Principled glass in the same
+    EEVEE scene the control); 0.612 when EEVEE was given one interface at the closure's index."""
+    ref = _render_checker("principled", eevee=True)
+    got = _render_checker(("lamella-eevee", GLASS), eevee=True)
+    assert _rel(got, ref, 1) <= 0.08
 
 
 @pytest.mark.parametrize("engine", ENGINES)

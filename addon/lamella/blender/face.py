@@ -10,7 +10,9 @@ for the output's Thickness, which only EEVEE reads (``THICKNESS``). The artist l
 into it and puts it anywhere in their tree (a Mix Shader, an Add Shader with an emission);
 Lamella never touches a node or link outside the group except to link a face it has just created
 (or a face of an earlier version that had no Thickness) into an output whose surface shows
-nothing Lamella did not make: its BSDF into the surface, its Thickness into a free Thickness.
+nothing Lamella did not make: its BSDF into the surface, its Thickness into a free Thickness; and,
+for glass, its own Thickness link, which EEVEE needs unlinked for a solid base and linked for a
+thin-walled one (``material_nodes.eevee_settings``).
 
 Each input belongs to a layer, not to a position: its key is ``<layer uid>/<field>``
 (``FaceInput``), kept in the group (``SOCKETS_KEY``: interface socket identifier -> key), so a

@@ -27,6 +27,7 @@ from ..core import luts
 from ..core.backends.ir.live_axes import socket_ranges
 from ..core.backends.ir.sockets import sockets
 from ..core.backends.nodes.lower import emit_plan
+from ..core.models import sides
 from ..core.backends.nodes.svm import live_values
 from . import animation, face, node_group
 from .face import face_node, is_face_tree
@@ -135,13 +136,27 @@ def link_thickness(nt, node) -> None:
             nt.links.new(node.outputs[face.THICKNESS], out.inputs[face.THICKNESS])
 
 
-def eevee_settings(mat, stack) -> None:
+def eevee_settings(mat, stack, node=None) -> None:
     """The material settings EEVEE's glass needs: a base that transmits refracts by ray tracing
     where the scene traces rays (else EEVEE shows only the light probes through it, never the
     objects behind). The render method is left as it is: Dithered, the default, is the one that
-    ray-traces refraction. Thickness: ``face.THICKNESS``."""
-    if stack.base.kind.transmits and not mat.use_raytrace_refraction:
+    ray-traces refraction. Thickness (``face.THICKNESS``): EEVEE follows refracted light through the
+    object's thickness, the material output's Thickness, or unlinked, one from the object's
+    smallest dimension. So the face ``node``'s own Thickness (0: one interface) is unlinked from the
+    outputs for a solid glass base, and linked into a free Thickness of an output its BSDF feeds
+    for a thin-walled one (``models.sides``); an opaque base's is left as it is."""
+    if not stack.base.kind.transmits:
+        return
+    if not mat.use_raytrace_refraction:
         mat.use_raytrace_refraction = True
+    if node is None or face.THICKNESS not in node.outputs:
+        return
+    if sides.is_solid(stack):
+        for link in list(node.outputs[face.THICKNESS].links):
+            if link.to_node.bl_idname == "ShaderNodeOutputMaterial":
+                mat.node_tree.links.remove(link)
+    else:
+        link_thickness(mat.node_tree, node)
 
 
 TEXT_MARK = "lamella_shader"  # custom property of the Text datablocks Lamella writes shaders into
@@ -275,7 +290,7 @@ def install(mat, stack, model: str, shader, oso_path, build_group: bool = True) 
     face.sync_interface(tree, inputs)
     if not had_thickness:  # a face of an earlier version: its Thickness goes where its surface goes
         link_thickness(mat.node_tree, node)
-    eevee_settings(mat, stack)
+    eevee_settings(mat, stack, node)
     animation.remap(node, before)
     face.set_node_values(node, inputs)
     if shader.tables:

@@ -22,7 +22,10 @@ class LobeKind:
     expressions of the arguments and the frame it is about (``osl_frame(a)``: the shading frame
     ``Normal``, ``Tn``, ``Bn``, or the frame of the layer's own normal);
     ``node(ops, a, wi)``: the Blender BSDF node (``bsdf_node.BsdfNode``) that makes the closure in
-    Cycles without OSL, and in EEVEE what EEVEE makes of that node; ``rough``: the lobe is a
+    Cycles without OSL, and in EEVEE what EEVEE makes of that node; ``eevee(ops, a, wi)``: where
+    EEVEE must be given another node for the lobe (a refraction EEVEE follows through an object's
+    thickness, which needs the true index), that node and the factor on the closure's weight that
+    turns it into the node's (None: ``node`` in every renderer); ``rough``: the lobe is a
     microfacet lobe, a delta at zero roughness. ``closure_cos`` and ``scale`` are the same of a
     lobe."""
 
@@ -35,6 +38,7 @@ class LobeKind:
     osl: Callable[[dict], str]
     node: Callable
     rough: bool = True
+    eevee: Callable | None = None
 
     def closure_cos(self, ops, lobe, wi, wo):
         return self.cos_of_args(ops, self.args(ops, lobe, wi), wi, wo)

@@ -97,7 +97,7 @@ def _transmission_scale(ops, args, wi):
 
 def _transmission_args(ops, lobe, wi):
     n = _transmission_normal(ops, lobe, wi)
-    return {"alpha": _transmission_alpha(ops, lobe), "nx": n[0], "ny": n[1], "nz": n[2]}
+    return {"alpha": _transmission_alpha(ops, lobe), "nx": n[0], "ny": n[1], "nz": n[2], "eta": lobe.eta}
 
 
 def _osl_transmission(a: dict) -> str:
@@ -115,6 +115,21 @@ def _bsdf_transmission(ops, a, wi):
                     {"Normal": (a["nx"], a["ny"], a["nz"])})
 
 
+def _eevee_transmission(ops, a, wi):
+    """EEVEE's refraction: a Refraction BSDF at the lobe's own index about the shading normal, so
+    that EEVEE, which follows refracted light through an object's thickness (the material output's
+    Thickness; unlinked, the object's), bends it at the far side as the glass does, with the
+    Walter roughness whose refraction spreads as the lobe (``_transmission_alpha`` at the lobe's
+    index, not REFRACT_ETA), and the weight of the lobe's energy: the closure's weight times the
+    closure's albedo (its normaliser undone, ``_transmission_scale``)."""
+    eta = ops.max(ops.abs(a["eta"] - 1.0), 1e-3)
+    lobe_alpha = a["alpha"] * ((REFRACT_ETA - 1.0) / (2.0 * REFRACT_ETA))
+    alpha = ops.clamp(2.0 * a["eta"] * lobe_alpha / eta, ALPHA_EVAL_MIN, 1.0)
+    node = BsdfNode("ShaderNodeBsdfRefraction", {"distribution": "GGX"},
+                    {"Roughness": ops.sqrt(alpha), "IOR": a["eta"]}, {"Normal": (0.0, 0.0, 1.0)})
+    return node, 1.0 / _transmission_scale(ops, a, wi)
+
+
 KIND = LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale, _transmission_args,
                 "GGX refraction lobe about the transmitted direction, below a dielectric base", _osl_transmission,
-                _bsdf_transmission)
+                _bsdf_transmission, eevee=_eevee_transmission)

@@ -416,13 +416,17 @@ def _plan(stack, model: str, st, image: str, live=()) -> Plan:
         params = {k: float(traced.tracer.defaults[k]) for k in traced.tracer.params}
         ids = dict(traced.tracer.ids)
         t, closures, wi, frame, table = traced.tracer, traced.covered, traced.wi, "shading", None
-    # a closure with EEVEE stand-ins (``Staged.stand_ins``) is drawn in Cycles, its stand-ins in EEVEE
+    # a closure with EEVEE stand-ins (``Staged.stand_ins``) is drawn in Cycles, its stand-ins in
+    # EEVEE; a closure whose kind gives EEVEE a node of its own (``LobeKind.eevee``) too
     stand_ins = st.stand_ins if st is not None else {}
-    targeted = []
+    specs = []
     for k, c in enumerate(closures):
-        targeted.append((c, "cycles" if k in stand_ins else "all"))
-        targeted += [(s, "eevee") for s in stand_ins.get(k, ())]
-    specs = [(c, c.weight, c.kind.node(t, c.args, wi), target) for c, target in targeted]
+        own = c.kind.eevee(t, c.args, wi) if c.kind.eevee is not None and k not in stand_ins else None
+        specs.append((c, c.weight, c.kind.node(t, c.args, wi), "cycles" if k in stand_ins or own else "all"))
+        specs += [(s, s.weight, s.kind.node(t, s.args, wi), "eevee") for s in stand_ins.get(k, ())]
+        if own is not None:
+            node, factor = own
+            specs.append((c, tuple(w * factor for w in c.weight), node, "eevee"))
     exprs = []
     for _, color, b, _ in specs:
         exprs += [*color, *b.floats.values()]
