@@ -98,3 +98,61 @@ def test_the_node_group_uses_tables_only_where_its_traced_part_is_too_large():
     assert plan.staged.live_axes == MAX_AXES and len(plan.bsdfs) == plan.staged.lobes_all
     # OSL has no such stack: its staging traces what the linked inputs reach
     assert staging.stage(big, live=textured_sockets(big)).axis_tables == ()
+
+
+def _linked_cases():
+    from lamella.core.presets import builtin
+    from lamella.core.backends.ir.sockets import sockets
+
+    out = []
+    for preset in builtin():
+        stack = preset.load()
+        ids = trace_closures(stack).tracer.ids
+        for sk in sockets(ids):
+            if all(ids[p].field != "rotation" for p in sk.params):  # an angle gets no axis: it stays traced
+                out.append(pytest.param(preset.id, sk.name, id=f"{preset.id}-{sk.name}"))
+    return out
+
+
+# Measured and open: the table over a scattering coat's three absorption channels (9 nodes each, the
+# square-root warp over 0-10 per unit length) is 10 % off the traced model over the range, 37 % at
+# (1, 2, 3), on the Randrianandrasana et al. 2021 Fig. 18 stack (smooth coat, g 0.9, over gold)
+OPEN = {("paper_green_scatter", "coat0_sigma_a")}
+
+
+@pytest.mark.parametrize("preset_id,socket", _linked_cases())
+def test_every_presets_linked_field_renders_in_the_node_group_as_in_the_osl_shader(preset_id, socket, request):
+    """A texture in any field of any preset: the node group (Cycles without OSL, EEVEE), which reads
+    the linked part from tables where it is too large for SVM (``emit_plan``), gives what the OSL
+    shader (the linked part traced) gives, at random views and linked values over the axis's range:
+    relative L1 under 2 % (the tables' own accuracy, ``bench/linked_tables.md``: largest 1.1-1.3 %).
+    Before the film's axes were stepped (``Field.axis_step``), the oil film preset's textured
+    thickness was 10.6 % off (17 nodes in the square-root warp over 0-1500 nm) and its film index 7.3 %;
+    before ``choose_auto`` decided a thin-walled base as its sheet, the node group's tables ran another
+    model than the shader for the soap film's textured roughness, 18.8 % off."""
+    from lamella.core import presets
+    from lamella.core.backends.evaluate import evaluate_staged
+
+    if (preset_id, socket) in OPEN:
+        request.applymarker(pytest.mark.xfail(strict=True, reason="the absorption table over three channels (OPEN)"))
+    stack = presets.find(preset_id).load()
+    nodes = emit_plan(stack, live=(socket,)).staged
+    osl = staging.stage(stack, live=(socket,))
+    rng = np.random.default_rng(7)
+    n = 3000
+    th = np.radians(rng.uniform(0.0, 85.0, n))
+    ph = rng.uniform(0.0, 2.0 * np.pi, n)
+    wi = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1)
+    wo = rng.normal(size=(n, 3))
+    wo[:, 2] = np.abs(wo[:, 2])
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    values = {}
+    for p in osl.live:
+        axis = axis_of(stack, osl.ids[p], osl.defaults[p])
+        lo, hi = (axis.lo, axis.hi) if axis is not None else (osl.defaults[p], osl.defaults[p])
+        values[p] = rng.uniform(lo, hi, n).astype(np.float32)
+    for seen_from in ("outside", "inside"):
+        want = evaluate_staged(osl, wi, wo, np.float32, values=values, seen_from=seen_from)
+        got = evaluate_staged(nodes, wi, wo, np.float32, values=values, seen_from=seen_from)
+        err = float(np.abs(got - want).sum() / max(np.abs(want).sum(), 1e-12))
+        assert err < 0.02, (preset_id, socket, seen_from, err, nodes.live_axes)

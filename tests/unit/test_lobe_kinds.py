@@ -24,8 +24,8 @@ def test_the_registry_refuses_an_incomplete_or_clashing_kind():
 
 def test_each_backend_renders_each_kind_from_its_arguments():
     """The printer and the node builder take exactly the arguments the kind's ``args`` makes: an
-    argument the OSL closure does not read is one the kind's own EEVEE node reads (``LobeKind.eevee``:
-    moving it moves that node's inputs)."""
+    argument the OSL closure does not read is one its normaliser or the kind's own EEVEE node reads
+    (``LobeKind.eevee``: moving it moves that node's inputs or weight)."""
     ops = NumpyOps()
     wi = (0.3, 0.1, (1.0 - 0.09 - 0.01) ** 0.5)
     lobe = Lobe(RGB.splat(0.5), 0.2, 0.1, 0.3, eta=1.4)
@@ -37,8 +37,9 @@ def test_each_backend_renders_each_kind_from_its_arguments():
             if f"a_{k}" in printed:
                 continue
             assert kind.eevee is not None, (name, k, printed)
-            node, _ = kind.eevee(ops, args, wi)
-            moved, _ = kind.eevee(ops, {**args, k: args[k] * 1.1 + 0.01}, wi)
-            assert any(node.floats[s] != moved.floats[s] for s in node.floats), (name, k)
+            (node, f), other = kind.eevee(ops, args, wi), {**args, k: args[k] * 1.1 + 0.01}
+            moved, g = kind.eevee(ops, other, wi)
+            assert (any(node.floats[s] != moved.floats[s] for s in node.floats) or f != g
+                    or kind.scale_of_args(ops, args, wi) != kind.scale_of_args(ops, other, wi)), (name, k)
         node = kind.node(ops, args, wi)
         assert isinstance(node, BsdfNode) and node.bl_idname.startswith("ShaderNodeBsdf"), name

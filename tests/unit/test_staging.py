@@ -202,7 +202,8 @@ def test_every_lobe_normaliser_depends_on_the_view_elevation_alone():
     theta = rng.uniform(0.0, 1.4, 64)
     for kind in lobe_kinds.KINDS.values():
         args = {"ax": rng.uniform(0.05, 0.8, 64), "ay": rng.uniform(0.05, 0.8, 64), "alpha": rng.uniform(0.05, 0.8, 64),
-                "cos": np.ones(64), "sin": np.zeros(64), "nx": np.zeros(64), "ny": np.zeros(64), "nz": -np.ones(64)}
+                "cos": np.ones(64), "sin": np.zeros(64), "nx": np.zeros(64), "ny": np.zeros(64), "nz": -np.ones(64),
+                "eta": np.full(64, 1.5), "albedo": rng.uniform(0.5, 1.0, 64)}
         values = []
         for phi in (0.0, 1.0, 2.6):
             wi = (np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta))

@@ -63,7 +63,10 @@ class Field:
     shaders compute in. ``soft`` is the (lo, hi) range a UI slider offers. ``unit`` is shown next to the value.
     ``label`` is the name a user interface shows (default: the field name in title case),
     ``color`` marks an RGB field that is a reflectance (a colour picker makes sense), and
-    ``group`` names the collapsible part of a panel the field belongs to ("" : the main part)."""
+    ``group`` names the collapsible part of a panel the field belongs to ("" : the main part).
+    ``axis_step``: where the model oscillates in the field (a film's interference colours cycle with
+    its thickness), the widest spacing of the nodes of a table over it (``live_axes``: evenly spaced
+    nodes, as many as the range needs); None: the table's usual nodes."""
 
     name: str
     type: str
@@ -76,6 +79,7 @@ class Field:
     label: str = ""
     color: bool = False
     group: str = ""
+    axis_step: float | None = None
 
     @property
     def param_unit(self) -> str:

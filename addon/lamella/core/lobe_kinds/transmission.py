@@ -86,18 +86,25 @@ def _transmission_closure_cos(ops, args, wi, wo):
     return ops.select(wo[2] < 0.0, ops.select(c_o < 0.0, value, 0.0), 0.0)
 
 
-def _transmission_scale(ops, args, wi):
-    """1 / the closure's directional transmittance at weight 1 (``ggx_refract_albedo``)."""
-    n = (args["nx"], args["ny"], args["nz"])
+def _closure_albedo(ops, alpha, n, wi):
+    """The closure's directional transmittance at weight 1 (``ggx_refract_albedo``) for the view
+    ``wi`` about its normal ``n``."""
     mu = wi[0] * n[0] + wi[1] * n[1] + wi[2] * n[2]
-    a = args["alpha"]
-    t = ops.lut("ggx_refract_albedo", luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, a))
-    return 1.0 / ops.max(t, GD_FLOOR)
+    return ops.lut("ggx_refract_albedo", luts.mu_to_coord(ops, mu), luts.alpha_to_coord(ops, alpha))
+
+
+def _transmission_scale(ops, args, wi):
+    """1 / the closure's directional transmittance at weight 1 (its ``albedo`` argument)."""
+    return 1.0 / ops.max(args["albedo"], GD_FLOOR)
 
 
 def _transmission_args(ops, lobe, wi):
+    """The closure's roughness and normal, the lobe's index (EEVEE's refraction reads it) and the
+    closure's albedo (its normaliser, and what EEVEE's weight undoes it by: ``_eevee_transmission``)."""
     n = _transmission_normal(ops, lobe, wi)
-    return {"alpha": _transmission_alpha(ops, lobe), "nx": n[0], "ny": n[1], "nz": n[2], "eta": lobe.eta}
+    alpha = _transmission_alpha(ops, lobe)
+    return {"alpha": alpha, "nx": n[0], "ny": n[1], "nz": n[2], "eta": lobe.eta,
+            "albedo": _closure_albedo(ops, alpha, n, wi)}
 
 
 def _osl_transmission(a: dict) -> str:
@@ -121,13 +128,14 @@ def _eevee_transmission(ops, a, wi):
     Thickness; unlinked, the object's), bends it at the far side as the glass does, with the
     Walter roughness whose refraction spreads as the lobe (``_transmission_alpha`` at the lobe's
     index, not REFRACT_ETA), and the weight of the lobe's energy: the closure's weight times the
-    closure's albedo (its normaliser undone, ``_transmission_scale``)."""
+    closure's albedo (its normaliser undone, ``_transmission_scale``; an argument, so the shaders
+    read it from the material table)."""
     eta = ops.max(ops.abs(a["eta"] - 1.0), 1e-3)
     lobe_alpha = a["alpha"] * ((REFRACT_ETA - 1.0) / (2.0 * REFRACT_ETA))
     alpha = ops.clamp(2.0 * a["eta"] * lobe_alpha / eta, ALPHA_EVAL_MIN, 1.0)
     node = BsdfNode("ShaderNodeBsdfRefraction", {"distribution": "GGX"},
                     {"Roughness": ops.sqrt(alpha), "IOR": a["eta"]}, {"Normal": (0.0, 0.0, 1.0)})
-    return node, 1.0 / _transmission_scale(ops, a, wi)
+    return node, a["albedo"]
 
 
 KIND = LobeKind("transmission", "transmitted", _transmission_closure_cos, _transmission_scale, _transmission_args,

@@ -16,7 +16,7 @@ from .adding_doubling import BELCOUR2018, WEIER2020, YAMAGUCHI2019, YAMAGUCHI_RE
 from .endf import ENDF
 from .rgb import RGB
 from .roughness import MAPPINGS
-from .sides import OUTSIDE
+from .sides import OUTSIDE, view_of
 from .transfer_matrix import TransferMatrix
 from .types import Lobe, UnsupportedStack
 
@@ -74,7 +74,11 @@ def choose_auto(stack) -> str:
                                                           bench/interface_variants.md best
                                                           of it
     ====================================  ==============  =====================================
+
+    A thin-walled base is decided as the sheet it stands for (``sides.view_of``: a coat of its
+    index over a base of index 1), so every caller names the model that runs.
     """
+    stack = view_of(stack, OUTSIDE)
     if stack.has_scattering:
         return TM6_REFINED.name
     if (stack.base.kind.transmits and len(stack.coats) == 1
