@@ -7,6 +7,8 @@ on a real mesh). The film's axis now has a node every 10 nm (``Field.axis_step``
 
 The control: the same preset with its film untextured (the panel's 350 nm), whose node group traces
 the film as the OSL shader does."""
+import functools
+
 import numpy as np
 import pytest
 
@@ -18,6 +20,7 @@ pytestmark = pytest.mark.xdist_group("textured_inputs")
 RES, SPP = 64, 32
 
 
+@functools.lru_cache(maxsize=None)  # the OSL renders serve both engines' comparisons
 def _render(textured: bool, engine: str):
     import bpy
     from lamella.blender import api

@@ -8,7 +8,7 @@ from .registry import BENCHES, Bench, cases_argument, register, unregister
 
 # the built-in benches (each registers itself)
 from . import (  # noqa: E402
-    accuracy, albedo_controls, eevee_anisotropy_fit, eevee_anisotropy_images, eevee_closures, eevee_engine_switch, eevee_gap, eevee_standins,
+    accuracy, albedo_controls, coat_darkening, eevee_anisotropy_fit, eevee_anisotropy_images, eevee_closures, eevee_engine_switch, eevee_gap, eevee_standins,
     energy, glass_plate_paths, holdout, image_references, images, interface_variants, layer_normals, linked_tables, live_osl, lobe_floor, luts_error,
     materialx,
     node_cost, osl_cost, pareto, recompile, scene, staging,
@@ -16,7 +16,7 @@ from . import (  # noqa: E402
 )
 
 __all__ = ["BENCHES", "Bench", "register", "unregister", "cases_argument", "write_page", "BENCH_DIR", "REPO",
-           "REFERENCE_DIR", "REFERENCE_DIR_MULTIPLE", "accuracy", "albedo_controls", "eevee_anisotropy_fit",
+           "REFERENCE_DIR", "REFERENCE_DIR_MULTIPLE", "accuracy", "albedo_controls", "coat_darkening", "eevee_anisotropy_fit",
            "eevee_anisotropy_images",
            "eevee_closures", "eevee_engine_switch", "eevee_gap", "eevee_standins", "energy", "glass_plate_paths", "holdout",
            "image_references", "images", "interface_variants", "layer_normals", "linked_tables", "live_osl", "lobe_floor",

@@ -53,7 +53,7 @@ from lamella.core.layers.film import FILM_IOR_MAX, FILM_IOR_MIN, FILM_THICKNESS_
 from lamella.core.models.coverage import MAX_PARTIAL
 from lamella.core.layers.schema import ANGLE_MAX, G_MAX, IOR_MAX, IOR_MIN, SIGMA_MAX, THICKNESS_MAX
 from lamella.core.models import UnsupportedStack
-from lamella.core.models.sides import SIDES
+from lamella.core.models.sides import SIDES, is_solid
 from lamella.core.stack import MAX_COATS, Stack
 from .paths import BENCH_DIR
 from .page import write_page
@@ -250,7 +250,8 @@ def check_staged(stack, wi: np.ndarray, wo: np.ndarray) -> bool:
 
     try:
         st = stage(stack)
-        fs = [evaluate_staged(st, wi, wo, np.float32, seen_from=side) for side in SIDES]
+        fs = [evaluate_staged(st, wi, wo, np.float32, seen_from=side)
+              for side in (SIDES if is_solid(Stack.coerce(stack)) else SIDES[:1])]
     except FloatingPointError:
         return True
     return not all(np.isfinite(f).all() and (f >= 0).all() for f in fs)
