@@ -12,20 +12,16 @@ from lamella.core.backends.evaluate import evaluate_staged
 from lamella.core.backends.ir.closures import INSIDE_INPUT, trace_closures
 from lamella.core.backends.ir.sockets import socket_names
 from lamella.core.backends.ir.staging import stage
+from lamella.core.backends.numpy_ops import NumpyOps
 from lamella.core.models import sides
+from lamella.core.models.fresnel import fresnel_dielectric
 from lamella.core.stack import Stack
 
 
 def _fresnel(c: float, n: float) -> float:
-    """Unpolarised Fresnel reflectance at cosine ``c`` onto relative index ``n`` (1 past the
-    critical angle)."""
-    s2 = (1.0 - c * c) / (n * n)
-    if s2 >= 1.0:
-        return 1.0
-    ct = np.sqrt(1.0 - s2)
-    rs = ((c - n * ct) / (c + n * ct)) ** 2
-    rp = ((n * c - ct) / (n * c + ct)) ** 2
-    return 0.5 * (rs + rp)
+    """Unpolarised Fresnel reflectance at cosine ``c`` onto relative index ``n`` (1 past the critical
+    angle): ``models.fresnel``'s (``test_models.test_fresnel_edges`` holds its exact edges)."""
+    return float(fresnel_dielectric(NumpyOps(np.float64), np.float64(c), n))
 
 
 def _dirs(deg):

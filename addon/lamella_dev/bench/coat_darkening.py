@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from lamella.core import Stack, api
+from lamella.core.backends.numpy_ops import NumpyOps
+from lamella.core.models.fresnel import fresnel_dielectric
 from .. import reference, suite
 from .paths import BENCH_DIR
 from .page import write_page
@@ -39,13 +41,8 @@ PLOT = "plots/coat_darkening.png"
 
 def fresnel(cos_i, n: float):
     """Unpolarised Fresnel reflectance at cosine ``cos_i`` onto relative index ``n`` (1 beyond the
-    critical angle)."""
-    cos_i = np.asarray(cos_i, dtype=np.float64)
-    s2 = (1.0 - cos_i * cos_i) / (n * n)
-    ct = np.sqrt(np.maximum(1.0 - s2, 0.0))
-    rs = ((cos_i - n * ct) / (cos_i + n * ct)) ** 2
-    rp = ((n * cos_i - ct) / (n * cos_i + ct)) ** 2
-    return np.where(s2 >= 1.0, 1.0, 0.5 * (rs + rp))
+    critical angle): the models' own (``models.fresnel``), in float64."""
+    return fresnel_dielectric(NumpyOps(np.float64), np.asarray(cos_i, dtype=np.float64), n)
 
 
 def internal_reflectance(n: float = IOR, steps: int = 200000) -> float:
